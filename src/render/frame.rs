@@ -1,0 +1,84 @@
+//! What a pass produces: the displayed image plus the maps the method chose, and run metadata.
+
+/// Why a render stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum HaltReason {
+    /// Not halted (an intermediate frame).
+    #[default]
+    None,
+    MaxPasses,
+    MaxSpp,
+    TimeBudget,
+}
+
+/// Numbers describing one frame of a progressive render.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FrameStats {
+    /// 0-based pass index.
+    pub pass: u32,
+    pub mean_spp: f64,
+    /// All rays traced so far (camera, shadow and bounce rays).
+    pub rays_traced: u64,
+    pub elapsed_seconds: f64,
+    pub is_final: bool,
+    pub halt_reason: HaltReason,
+    /// Non-finite samples dropped so far.
+    pub dropped_samples: u64,
+    /// Seconds spent so far in the method's own work (sample rates, filter), not in tracing.
+    pub method_seconds: f64,
+}
+
+/// One progressively refined frame. Pixels are row-major, top row first.
+#[derive(Clone, Debug, Default)]
+pub struct Frame {
+    pub width: u32,
+    pub height: u32,
+    /// The displayed colour (filtered where the method filters).
+    pub color: Vec<[f32; 3]>,
+    /// The per-pixel Monte Carlo mean before filtering; `None` when the method does not filter
+    /// (then it equals `color`).
+    pub unfiltered: Option<Vec<[f32; 3]>>,
+    /// Samples per pixel accumulated so far.
+    pub spp: Vec<f32>,
+    /// Filter width (standard deviation, in pixels) used at each pixel; `None` when the method
+    /// does not filter (all zero).
+    pub filter_width: Option<Vec<f32>>,
+    pub stats: FrameStats,
+}
+
+impl Frame {
+    pub fn pixel_count(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+
+    /// The unfiltered colour, which is `color` itself for unfiltered methods.
+    pub fn unfiltered_color(&self) -> &[[f32; 3]] {
+        self.unfiltered.as_deref().unwrap_or(&self.color)
+    }
+
+    /// The filter width at pixel `i` (0 where unfiltered).
+    pub fn filter_width_at(&self, i: usize) -> f32 {
+        self.filter_width.as_ref().map_or(0.0, |w| w[i])
+    }
+}
+
+/// The camera as the request stated it, for output metadata.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CameraInfo {
+    pub position: [f32; 3],
+    pub look_at: [f32; 3],
+    pub up: [f32; 3],
+    pub vertical_fov_deg: f32,
+}
+
+/// What produced a frame: recorded in output file headers.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RenderInfo {
+    /// Built-in scene name or scene file path.
+    pub scene: String,
+    /// Method name as on the CLI (`uniform`, ...).
+    pub method: String,
+    pub seed: u64,
+    pub bounces: u32,
+    pub camera: CameraInfo,
+}
