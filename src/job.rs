@@ -1,10 +1,21 @@
 //! Turns a `RenderRequest` (from gRPC or built by the CLI) into a validated render job. Both
-//! front ends go through here, so the same request renders the same image either way.
+//! front ends go through here, so the same request renders the same image either way, and every
+//! field of the request is checked in one place.
 use crate::proto;
-use crate::render::frame::RenderInfo;
-use crate::render::progressive::RenderJob;
-use crate::scene::FieldError;
+use crate::render::frame::{CameraInfo, RenderInfo};
+use crate::render::progressive::{Halt, Method, RenderJob};
+use crate::scene::fields::{enum_value, err, finite, opt_vec3, FieldResult};
+use crate::scene::{builtin, compile, FieldError, SceneLimits};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// Passes a render runs when the request and scene set no halt condition at all.
+pub const DEFAULT_PASSES: u32 = 8;
+/// Most indirect bounces a request may ask for.
+pub const MAX_BOUNCES: u32 = 64;
+/// Most samples per pixel of the first uniform pass.
+pub const MAX_INITIAL_SPP: u32 = 1 << 16;
 
 /// Server-side limits; each is a `wedge serve` option.
 #[derive(Clone, Debug)]
@@ -37,13 +48,234 @@ pub struct PreparedJob {
 }
 
 /// Validates `req` against `limits` and compiles its scene. `base_dir` resolves relative mesh
-/// paths of scene files; `scene_label` names the scene in output metadata.
+/// paths of scene files; `scene_label` names the scene in output metadata. Errors name the
+/// request field (`settings.max_passes: ...`, `scene.lights[0].rect.edge_u: ...`).
 pub fn prepare(
     req: &proto::RenderRequest,
     limits: &Limits,
     base_dir: Option<&Path>,
     scene_label: &str,
 ) -> Result<PreparedJob, FieldError> {
-    let _ = (req, limits, base_dir, scene_label);
-    Err(FieldError { field: "scene".into(), message: "in progress".into() })
+    use proto::render_request::SceneSource;
+    let mut scene = match &req.scene_source {
+        Some(SceneSource::Scene(s)) => s.clone(),
+        Some(SceneSource::Builtin(name)) => builtin::get(name).ok_or_else(|| FieldError {
+            field: "builtin".into(),
+            message: format!(
+                "unknown built-in scene {name:?} (available: {})",
+                builtin::names().collect::<Vec<_>>().join(", ")
+            ),
+        })?,
+        None => return err("scene", "a scene or the name of a built-in scene is required"),
+    };
+    apply_overrides(req, &mut scene)?;
+    let settings = merge_settings(scene.settings.as_ref(), req.settings.as_ref());
+    let (method, halt, bounces, initial_spp) = validate_settings(&settings, limits)?;
+    if let Some(o) = &req.outputs {
+        enum_value::<proto::PixelFormat>("outputs.format", o.format)?;
+    }
+    let scene_limits =
+        SceneLimits { max_triangles: limits.max_triangles, max_pixels: limits.max_pixels, mesh_root: limits.mesh_root.clone() };
+    let compiled = compile(&scene, &scene_limits, base_dir)?;
+    let cam = scene.camera.as_ref().map(camera_info).unwrap_or_default();
+    Ok(PreparedJob {
+        job: RenderJob { scene: Arc::new(compiled), method, halt, seed: req.seed, bounces, initial_spp },
+        info: RenderInfo {
+            scene: scene_label.to_string(),
+            method: method.name().to_string(),
+            seed: req.seed,
+            bounces,
+            camera: cam,
+        },
+    })
+}
+
+fn camera_info(c: &proto::Camera) -> CameraInfo {
+    let v = |v: &Option<proto::Vec3>| v.as_ref().map_or([0.0; 3], |v| [v.x, v.y, v.z]);
+    CameraInfo {
+        position: v(&c.position),
+        look_at: v(&c.look_at),
+        up: if c.up.is_some() { v(&c.up) } else { [0.0, 1.0, 0.0] },
+        vertical_fov_deg: c.vertical_fov_deg,
+    }
+}
+
+/// Applies the request's camera and resolution overrides to the scene, checking each.
+fn apply_overrides(req: &proto::RenderRequest, scene: &mut proto::Scene) -> FieldResult<()> {
+    let cam = scene.camera.get_or_insert_with(Default::default);
+    if req.width != 0 {
+        cam.width = req.width;
+    }
+    if req.height != 0 {
+        cam.height = req.height;
+    }
+    if let Some(o) = &req.camera {
+        if let Some(p) = &o.position {
+            cam.position = Some(check_vec3("camera.position", p)?);
+        }
+        if let Some(p) = &o.look_at {
+            cam.look_at = Some(check_vec3("camera.look_at", p)?);
+        }
+        if let Some(p) = &o.up {
+            cam.up = Some(check_vec3("camera.up", p)?);
+        }
+        if let Some(f) = o.vertical_fov_deg {
+            if !(finite("camera.vertical_fov_deg", f)? > 0.0 && f < 180.0) {
+                return err("camera.vertical_fov_deg", format!("must be in (0, 180), got {f}"));
+            }
+            cam.vertical_fov_deg = f;
+        }
+    }
+    Ok(())
+}
+
+fn check_vec3(path: &str, v: &proto::Vec3) -> FieldResult<proto::Vec3> {
+    opt_vec3(path, v)?;
+    Ok(*v)
+}
+
+/// The scene's settings with every field the request sets (non-zero) taking precedence.
+fn merge_settings(scene: Option<&proto::RenderSettings>, req: Option<&proto::RenderSettings>) -> proto::RenderSettings {
+    let mut s = scene.cloned().unwrap_or_default();
+    if let Some(r) = req {
+        if r.method != 0 {
+            s.method = r.method;
+        }
+        if r.max_passes != 0 {
+            s.max_passes = r.max_passes;
+        }
+        if r.max_mean_spp != 0.0 {
+            s.max_mean_spp = r.max_mean_spp;
+        }
+        if r.time_budget_seconds != 0.0 {
+            s.time_budget_seconds = r.time_budget_seconds;
+        }
+        if r.bounces.is_some() {
+            s.bounces = r.bounces;
+        }
+        if r.initial_spp != 0 {
+            s.initial_spp = r.initial_spp;
+        }
+    }
+    s
+}
+
+fn validate_settings(s: &proto::RenderSettings, limits: &Limits) -> FieldResult<(Method, Halt, u32, u32)> {
+    let method = match enum_value::<proto::Method>("settings.method", s.method)? {
+        proto::Method::Unspecified | proto::Method::Uniform => Method::Uniform,
+    };
+    if s.max_passes > limits.max_passes {
+        return err("settings.max_passes", format!("must be <= {} (server limit), got {}", limits.max_passes, s.max_passes));
+    }
+    let spp = finite("settings.max_mean_spp", s.max_mean_spp)? as f64;
+    if !(0.0..=limits.max_mean_spp).contains(&spp) {
+        return err("settings.max_mean_spp", format!("must be in [0, {}] (server limit), got {spp}", limits.max_mean_spp));
+    }
+    let time = finite("settings.time_budget_seconds", s.time_budget_seconds)? as f64;
+    if !(0.0..=limits.max_time_budget_seconds).contains(&time) {
+        return err(
+            "settings.time_budget_seconds",
+            format!("must be in [0, {}] (server limit), got {time}", limits.max_time_budget_seconds),
+        );
+    }
+    let bounces = s.bounces.unwrap_or(0);
+    if bounces > MAX_BOUNCES {
+        return err("settings.bounces", format!("must be <= {MAX_BOUNCES}, got {bounces}"));
+    }
+    if s.initial_spp > MAX_INITIAL_SPP {
+        return err("settings.initial_spp", format!("must be <= {MAX_INITIAL_SPP}, got {}", s.initial_spp));
+    }
+    // With no halt condition at all, stop after DEFAULT_PASSES; with some, the server's pass
+    // limit still bounds the render.
+    let any = s.max_passes != 0 || spp > 0.0 || time > 0.0;
+    let max_passes = if s.max_passes != 0 {
+        s.max_passes
+    } else if any {
+        limits.max_passes
+    } else {
+        DEFAULT_PASSES.min(limits.max_passes)
+    };
+    let halt = Halt {
+        max_passes,
+        max_mean_spp: if spp > 0.0 { spp } else { limits.max_mean_spp },
+        time_budget: (time > 0.0).then(|| Duration::from_secs_f64(time)),
+    };
+    Ok((method, halt, bounces, s.initial_spp.max(1)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn builtin_req(name: &str) -> proto::RenderRequest {
+        proto::RenderRequest {
+            scene_source: Some(proto::render_request::SceneSource::Builtin(name.into())),
+            width: 32,
+            height: 24,
+            ..Default::default()
+        }
+    }
+
+    fn field_of(req: proto::RenderRequest) -> String {
+        match prepare(&req, &Limits::default(), None, "t") {
+            Ok(_) => panic!("expected an error"),
+            Err(e) => e.field,
+        }
+    }
+
+    #[test]
+    fn builtin_scene_with_overrides() {
+        let mut req = builtin_req("cornell");
+        req.seed = 5;
+        req.settings = Some(proto::RenderSettings { max_passes: 3, bounces: Some(2), ..Default::default() });
+        let p = prepare(&req, &Limits::default(), None, "cornell").unwrap();
+        assert_eq!((p.job.scene.width(), p.job.scene.height()), (32, 24));
+        assert_eq!(p.job.halt.max_passes, 3);
+        assert_eq!(p.job.bounces, 2);
+        assert_eq!(p.info.seed, 5);
+        assert_eq!(p.info.method, "uniform");
+        assert_eq!(p.info.camera.position, [278.0, 273.0, -800.0]);
+    }
+
+    #[test]
+    fn defaults_and_server_limits_bound_the_halt() {
+        let mut req = builtin_req("grids");
+        req.settings = Some(proto::RenderSettings { max_passes: 0, ..Default::default() });
+        let p = prepare(&req, &Limits::default(), None, "grids").unwrap();
+        assert_eq!(p.job.halt.max_passes, 8); // the scene's own setting
+        req.settings = Some(proto::RenderSettings { time_budget_seconds: 2.0, ..Default::default() });
+        let p = prepare(&req, &Limits::default(), None, "grids").unwrap();
+        assert_eq!(p.job.halt.time_budget, Some(Duration::from_secs(2)));
+    }
+
+    #[test]
+    fn bad_requests_name_their_field() {
+        assert_eq!(field_of(builtin_req("nope")), "builtin");
+        assert_eq!(field_of(proto::RenderRequest::default()), "scene");
+        let mut r = builtin_req("cornell");
+        r.settings = Some(proto::RenderSettings { max_passes: 1000, ..Default::default() });
+        assert_eq!(field_of(r), "settings.max_passes");
+        let mut r = builtin_req("cornell");
+        r.settings = Some(proto::RenderSettings { max_mean_spp: f32::NAN, ..Default::default() });
+        assert_eq!(field_of(r), "settings.max_mean_spp");
+        let mut r = builtin_req("cornell");
+        r.settings = Some(proto::RenderSettings { method: 99, ..Default::default() });
+        assert_eq!(field_of(r), "settings.method");
+        let mut r = builtin_req("cornell");
+        r.camera = Some(proto::CameraOverride { vertical_fov_deg: Some(0.0), ..Default::default() });
+        assert_eq!(field_of(r), "camera.vertical_fov_deg");
+        let mut r = builtin_req("cornell");
+        r.camera = Some(proto::CameraOverride {
+            position: Some(proto::Vec3 { x: f32::INFINITY, y: 0.0, z: 0.0 }),
+            ..Default::default()
+        });
+        assert_eq!(field_of(r), "camera.position.x");
+        let mut r = builtin_req("cornell");
+        r.width = 100_000;
+        r.height = 100_000;
+        assert_eq!(field_of(r), "scene.camera.width");
+        let mut r = builtin_req("cornell");
+        r.settings = Some(proto::RenderSettings { bounces: Some(1000), ..Default::default() });
+        assert_eq!(field_of(r), "settings.bounces");
+    }
 }

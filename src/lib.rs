@@ -1,6 +1,7 @@
 //! wedge: a gRPC render-and-denoise service. `render` is the tracer and filter core, `scene`
 //! the scene schema and its compiler, `job` the request-to-job mapping shared by the CLI and
 //! the server, `output` the image files, `server` the thin tonic layer.
+pub mod client;
 pub mod job;
 pub mod output;
 pub mod render;

@@ -1,1 +1,144 @@
-//! Output files.
+//! Output files of a rendered frame: a lossless multi-layer EXR with everything the method
+//! produced and how it was produced (for metrics and reproduction), an sRGB preview PNG, and
+//! false-colour PNGs of the spp and filter-width maps (for looking at where the method spent
+//! samples and how widely it filtered).
+mod error;
+mod exr;
+mod exr_attributes;
+mod exr_canonical;
+mod falsecolor;
+mod legend;
+mod preview;
+#[cfg(test)]
+mod test_util;
+
+use std::path::{Path, PathBuf};
+
+use crate::render::frame::{Frame, RenderInfo};
+
+pub use self::error::OutputError;
+pub use self::exr::{read_exr, write_exr, ExrImage};
+pub use self::falsecolor::write_false_color_png;
+pub use self::preview::{tonemap_srgb8, write_preview_png};
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct OutputOptions {
+    /// Leave wall-clock seconds out of file headers, so that identical renders give
+    /// byte-identical files (regression tests, content-addressed caches).
+    pub reproducible: bool,
+}
+
+/// The files `write_frame_files` wrote.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct WrittenFiles {
+    pub exr: PathBuf,
+    pub preview: PathBuf,
+    pub spp_map: PathBuf,
+    pub filter_width_map: PathBuf,
+}
+
+/// Writes `<stem>.exr`, `<stem>.png` (preview), `<stem>_spp.png` and `<stem>_filter_width.png`
+/// into `dir`, creating it if missing.
+pub fn write_frame_files(
+    dir: &Path,
+    stem: &str,
+    frame: &Frame,
+    info: &RenderInfo,
+    opts: &OutputOptions,
+) -> Result<WrittenFiles, OutputError> {
+    std::fs::create_dir_all(dir).map_err(|source| OutputError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let files = WrittenFiles {
+        exr: dir.join(format!("{stem}.exr")),
+        preview: dir.join(format!("{stem}.png")),
+        spp_map: dir.join(format!("{stem}_spp.png")),
+        filter_width_map: dir.join(format!("{stem}_filter_width.png")),
+    };
+    write_exr(&files.exr, frame, info, opts)?;
+    write_preview_png(&files.preview, frame)?;
+    let (width, height) = (frame.width, frame.height);
+    write_false_color_png(&files.spp_map, &frame.spp, width, height, "spp")?;
+    // Unfiltered methods have no map; they filter with width 0 everywhere.
+    let zeros;
+    let filter_width = match &frame.filter_width {
+        Some(widths) => widths,
+        None => {
+            zeros = vec![0.0; frame.pixel_count()];
+            &zeros
+        }
+    };
+    write_false_color_png(
+        &files.filter_width_map,
+        filter_width,
+        width,
+        height,
+        "filter width (px)",
+    )?;
+    Ok(files)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_util::TempDir;
+    use super::*;
+
+    #[test]
+    fn writes_all_four_files_creating_the_directory() {
+        let dir = TempDir::new("frame_files");
+        let out = dir.path().join("nested").join("out");
+        let frame = Frame {
+            width: 3,
+            height: 5,
+            color: vec![[0.25, 0.5, 1.0]; 15],
+            spp: (0..15).map(|i| i as f32).collect(),
+            ..Frame::default()
+        };
+        let info = RenderInfo {
+            scene: "cornell-box".into(),
+            method: "uniform".into(),
+            ..RenderInfo::default()
+        };
+        let files =
+            write_frame_files(&out, "final", &frame, &info, &OutputOptions::default()).unwrap();
+        assert_eq!(
+            files,
+            WrittenFiles {
+                exr: out.join("final.exr"),
+                preview: out.join("final.png"),
+                spp_map: out.join("final_spp.png"),
+                filter_width_map: out.join("final_filter_width.png"),
+            }
+        );
+        let read = read_exr(&files.exr).unwrap();
+        assert_eq!(read.info, info);
+        let preview = image::open(&files.preview).unwrap();
+        assert_eq!((preview.width(), preview.height()), (3, 5));
+        for map in [&files.spp_map, &files.filter_width_map] {
+            let map = image::open(map).unwrap();
+            // The legend widens and lengthens the canvas of such a small map.
+            assert!(map.width() > 3 && map.height() > 5);
+        }
+    }
+
+    #[test]
+    fn errors_name_the_failing_path() {
+        let dir = TempDir::new("frame_files_error");
+        // A regular file where the output directory should be.
+        let blocker = dir.path().join("blocker");
+        std::fs::write(&blocker, b"").unwrap();
+        let frame = Frame {
+            width: 1,
+            height: 1,
+            color: vec![[0.0; 3]],
+            spp: vec![1.0],
+            ..Frame::default()
+        };
+        let opts = OutputOptions::default();
+        let error =
+            write_frame_files(&blocker, "x", &frame, &RenderInfo::default(), &opts).unwrap_err();
+        assert!(matches!(error, OutputError::Io { .. }), "{error}");
+        assert!(error.to_string().contains("blocker"), "{error}");
+    }
+}

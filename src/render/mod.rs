@@ -1,4 +1,20 @@
 //! The tracer and filter core. Knows nothing of gRPC or files.
+//!
+//! One file per concept: `camera`, `sampler`, `geometry` (triangles and BVH), `texture`,
+//! `material`, `light`, `scene` (the compiled scene), `integrator` (radiance along a path),
+//! `film` (per-pixel estimates), `strategy` (what a pass does) with its implementations
+//! (`uniform`), and `progressive` (the pass loop and halt conditions).
+pub mod camera;
+pub mod film;
 pub mod frame;
+pub mod frame_basis;
+pub mod geometry;
+pub mod integrator;
+pub mod light;
+pub mod material;
 pub mod progressive;
+pub mod sampler;
 pub mod scene;
+pub mod strategy;
+pub mod texture;
+pub mod uniform;

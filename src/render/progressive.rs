@@ -1,10 +1,11 @@
 //! The progressive renderer: a render is a sequence of passes; each pass adds samples to the
 //! running per-pixel estimate and yields a frame, until a halt condition is met.
-use super::frame::{Frame, FrameStats};
+use super::frame::{Frame, FrameStats, HaltReason};
 use super::scene::Scene;
+use super::strategy::{make_strategy, PassContext, PassOutput, StopCheck};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// Shared flag that stops a render within one tile's work.
 #[derive(Clone, Debug, Default)]
@@ -69,12 +70,47 @@ pub enum RenderError {
 }
 
 /// Runs `job` to a halt condition, calling `on_frame` with each pass's frame (on the calling
-/// thread). `on_frame` returning false stops the render like a cancellation.
+/// thread). `on_frame` returning false stops the render like a cancellation. Work runs on the
+/// current rayon pool (`pool.install` chooses the threads; the image does not depend on them).
 pub fn render(
     job: &RenderJob,
     cancel: &CancelToken,
     on_frame: &mut dyn FnMut(&Frame) -> bool,
 ) -> Result<FrameStats, RenderError> {
-    let _ = (job, cancel, on_frame);
-    Err(RenderError::Cancelled) // replaced by the real loop in this same change
+    let start = Instant::now();
+    let mut strategy = make_strategy(job);
+    let halt = &job.halt;
+    for pass in 0.. {
+        // The first pass always completes so that every render yields a frame.
+        let stop = StopCheck {
+            cancel: cancel.clone(),
+            deadline: if pass == 0 { None } else { halt.time_budget.map(|b| start + b) },
+        };
+        let ctx = PassContext { scene: &job.scene, job, pass, stop: &stop };
+        let PassOutput { mut frame, complete } = strategy.run_pass(&ctx)?;
+        let elapsed = start.elapsed();
+        let reason = if halt.max_mean_spp > 0.0 && frame.stats.mean_spp >= halt.max_mean_spp {
+            HaltReason::MaxSpp
+        } else if pass + 1 >= halt.max_passes.max(1) {
+            HaltReason::MaxPasses
+        } else if !complete || halt.time_budget.is_some_and(|b| elapsed >= b) {
+            HaltReason::TimeBudget
+        } else {
+            HaltReason::None
+        };
+        frame.stats.pass = pass;
+        frame.stats.elapsed_seconds = elapsed.as_secs_f64();
+        frame.stats.is_final = reason != HaltReason::None;
+        frame.stats.halt_reason = reason;
+        if !on_frame(&frame) {
+            return Err(RenderError::Cancelled);
+        }
+        if frame.stats.is_final {
+            return Ok(frame.stats);
+        }
+    }
+    unreachable!("the pass loop only ends by returning")
 }
+
+#[cfg(test)]
+mod tests;

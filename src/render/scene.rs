@@ -1,7 +1,268 @@
 //! The compiled scene the tracer reads: triangles in BVH order, materials, lights, camera.
-#[derive(Debug)]
-pub struct Scene {
+//!
+//! The builder moves every scene into one internal frame (bounds centred at the origin,
+//! diagonal `INTERNAL_DIAGONAL`) by a similarity transform. Everything the methods compute from
+//! distances is a ratio, or is compared with the projected pixel size in the same units, so it
+//! is unchanged; but ray epsilons and the BVH's fixed 1e-4 entry distance then work the same
+//! for scenes measured in millimetres or kilometres. Point-light intensity is the one
+//! radiometric quantity with a length in it (E = I / r^2), so it is rescaled by s^2.
+use super::camera::Camera;
+use super::geometry::{Geometry, GeometryBuilder, Hit, NONE};
+use super::light::{Light, RectLight};
+use super::material::Material;
+use glam::{Vec2, Vec3};
+
+/// Diagonal of the scene bounds in the internal frame.
+pub const INTERNAL_DIAGONAL: f32 = 10.0;
+
+/// The camera as described, before normalisation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraDesc {
+    pub position: Vec3,
+    pub look_at: Vec3,
+    pub up: Vec3,
+    pub vertical_fov_deg: f32,
     pub width: u32,
     pub height: u32,
-    pub triangle_count: usize,
+}
+
+#[derive(Clone, Debug)]
+pub struct SceneBuilder {
+    pub camera: CameraDesc,
+    pub geometry: GeometryBuilder,
+    pub materials: Vec<Material>,
+    pub lights: Vec<Light>,
+    pub objects: u32,
+}
+
+impl SceneBuilder {
+    pub fn new(camera: CameraDesc) -> Self {
+        SceneBuilder { camera, geometry: GeometryBuilder::default(), materials: Vec::new(), lights: Vec::new(), objects: 0 }
+    }
+
+    pub fn add_material(&mut self, m: Material) -> u32 {
+        self.materials.push(m);
+        (self.materials.len() - 1) as u32
+    }
+
+    /// A new object id.
+    pub fn new_object(&mut self) -> u32 {
+        self.objects += 1;
+        self.objects - 1
+    }
+
+    /// Adds an area light and the two triangles that make it visible to camera rays.
+    pub fn add_rect_light(&mut self, light: RectLight) {
+        let index = self.lights.len() as u32;
+        let material = self.add_material(Material::Emitter { light: index });
+        let object = self.new_object();
+        let (c, u, v) = (light.corner, light.edge_u, light.edge_v);
+        let uv = |a: f32, b: f32| Vec2::new(a, b);
+        self.geometry.push([c, c + u, c + u + v], None, Some([uv(0., 0.), uv(1., 0.), uv(1., 1.)]), material, object);
+        self.geometry.push([c, c + u + v, c + v], None, Some([uv(0., 0.), uv(1., 1.), uv(0., 1.)]), material, object);
+        self.lights.push(Light::Rect(light));
+    }
+
+    /// Normalises into the internal frame and builds the BVH.
+    pub fn build(mut self) -> Scene {
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for p in self.geometry.positions.iter().flatten() {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        for l in &self.lights {
+            if let Light::Point(p) = l {
+                lo = lo.min(p.position);
+                hi = hi.max(p.position);
+            }
+        }
+        let diag = (hi - lo).length();
+        let (center, scale) =
+            if diag.is_finite() && diag > 0.0 { ((lo + hi) * 0.5, INTERNAL_DIAGONAL / diag) } else { (Vec3::ZERO, 1.0) };
+        let to_internal = move |p: Vec3| (p - center) * scale;
+        self.geometry.transform(to_internal, |n| n);
+        for l in &mut self.lights {
+            match l {
+                Light::Rect(r) => {
+                    *r = RectLight::new(to_internal(r.corner), r.edge_u * scale, r.edge_v * scale, r.radiance, r.profile)
+                }
+                Light::Point(p) => {
+                    p.position = to_internal(p.position);
+                    p.intensity *= scale * scale;
+                }
+            }
+        }
+        let c = &self.camera;
+        let camera =
+            Camera::new(to_internal(c.position), to_internal(c.look_at), c.up, c.vertical_fov_deg, c.width, c.height);
+        let degenerate_triangles = self.geometry.degenerate;
+        let extent = if diag.is_finite() && diag > 0.0 { (hi - lo) * scale } else { Vec3::ZERO };
+        Scene {
+            camera,
+            geometry: self.geometry.build(),
+            materials: self.materials,
+            lights: self.lights,
+            world_scale: scale,
+            extent,
+            objects: self.objects,
+            degenerate_triangles,
+        }
+    }
+}
+
+#[derive(Debug)]
+pub struct Scene {
+    pub camera: Camera,
+    pub geometry: Geometry,
+    pub materials: Vec<Material>,
+    pub lights: Vec<Light>,
+    /// Internal units per world unit.
+    pub world_scale: f32,
+    /// Size of the bounds along each axis, internal units.
+    pub extent: Vec3,
+    pub objects: u32,
+    pub degenerate_triangles: usize,
+}
+
+/// A shading point: a hit with its geometry resolved and normals facing the incoming ray.
+#[derive(Clone, Copy, Debug)]
+pub struct Surface {
+    pub p: Vec3,
+    /// Geometric normal, on the side the ray came from.
+    pub ng: Vec3,
+    /// Shading normal, on the same side as `ng`.
+    pub ns: Vec3,
+    pub uv: Vec2,
+    pub material: u32,
+    pub object: u32,
+    pub t: f32,
+}
+
+impl Scene {
+    pub fn width(&self) -> u32 {
+        self.camera.width
+    }
+
+    pub fn height(&self) -> u32 {
+        self.camera.height
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.geometry.triangle_count()
+    }
+
+    /// Largest dimension of the scene bounds (internal units).
+    pub fn max_extent(&self) -> f32 {
+        self.extent.max_element()
+    }
+
+    /// Distance to move a ray origin off a surface at `p`: far above f32 rounding at p's
+    /// magnitude and above the BVH's fixed 1e-4 entry distance.
+    #[inline]
+    pub fn ray_epsilon(p: Vec3) -> f32 {
+        2e-4 * (1.0 + p.abs().max_element())
+    }
+
+    /// Closest surface along the ray.
+    #[inline]
+    pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32) -> Option<Surface> {
+        self.geometry.intersect(origin, dir, tmin, f32::INFINITY).map(|h| self.surface(&h, origin, dir))
+    }
+
+    fn surface(&self, h: &Hit, origin: Vec3, dir: Vec3) -> Surface {
+        let g = &self.geometry;
+        let attr = g.attrs[h.slot as usize];
+        let b0 = 1.0 - h.b1 - h.b2;
+        let mut ng = g.geometric_normal(h.slot);
+        if ng.dot(dir) > 0.0 {
+            ng = -ng;
+        }
+        let mut ns = if attr.normals == NONE {
+            ng
+        } else {
+            let n = g.normals[attr.normals as usize];
+            (n[0] * b0 + n[1] * h.b1 + n[2] * h.b2).normalize_or_zero()
+        };
+        if ns == Vec3::ZERO {
+            ns = ng;
+        } else if ns.dot(ng) < 0.0 {
+            ns = -ns;
+        }
+        let uv = if attr.uvs == NONE {
+            Vec2::new(h.b1, h.b2)
+        } else {
+            let t = g.uvs[attr.uvs as usize];
+            t[0] * b0 + t[1] * h.b1 + t[2] * h.b2
+        };
+        Surface { p: origin + dir * h.t, ng, ns, uv, material: attr.material, object: attr.object, t: h.t }
+    }
+
+    /// True when something blocks the segment from surface point `p` (geometric normal `ng`,
+    /// facing the target) to `target`. The ray starts off the surface and aims at the target
+    /// from there, stopping an epsilon short of it so that the light's own surface does not
+    /// count: subtracting a fixed length from the original distance instead fails at grazing
+    /// angles, where the offset origin is up to eps/cos closer to the light plane.
+    #[inline]
+    pub fn occluded(&self, p: Vec3, ng: Vec3, target: Vec3) -> bool {
+        let o = p + ng * Self::ray_epsilon(p);
+        let d = target - o;
+        let dist = d.length();
+        let tmax = dist - Self::ray_epsilon(target);
+        if !(tmax > 0.0) {
+            return false;
+        }
+        self.geometry.occluded(o, d / dist, 0.0, tmax)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::light::{EmissionProfile, PointLight};
+
+    fn desc() -> CameraDesc {
+        CameraDesc {
+            position: Vec3::new(0.0, 0.0, 5.0),
+            look_at: Vec3::ZERO,
+            up: Vec3::Y,
+            vertical_fov_deg: 40.0,
+            width: 8,
+            height: 8,
+        }
+    }
+
+    #[test]
+    fn normalisation_is_a_similarity_and_rescales_point_intensity() {
+        for s in [1e-3f32, 1.0, 1e4] {
+            let mut b = SceneBuilder::new(CameraDesc { position: Vec3::new(0.0, 0.0, 5.0) * s, ..desc() });
+            let m = b.add_material(Material::Emitter { light: 0 });
+            b.geometry.push([Vec3::ZERO, Vec3::X * s, Vec3::Y * s], None, None, m, 0);
+            b.lights.push(Light::Point(PointLight { position: Vec3::new(0.0, 0.0, 1.0) * s, intensity: Vec3::ONE }));
+            let scene = b.build();
+            // Irradiance at the triangle's corner from the point light is invariant: I/r^2.
+            let Light::Point(p) = &scene.lights[0] else { unreachable!() };
+            let corner = scene.geometry.vertices(0).into_iter().fold(Vec3::splat(f32::INFINITY), Vec3::min);
+            let e = p.intensity.x / (p.position - corner).length_squared();
+            let expected = 1.0 / (s * s);
+            assert!((e / expected - 1.0).abs() < 1e-4, "scale {s}: {e} vs {expected}");
+            assert!((scene.max_extent() - INTERNAL_DIAGONAL / 3f32.sqrt()).abs() < 1e-3);
+        }
+    }
+
+    #[test]
+    fn rect_light_is_visible_and_faces_its_normal() {
+        let mut b = SceneBuilder::new(desc());
+        b.add_rect_light(RectLight::new(
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::ONE,
+            EmissionProfile::Uniform,
+        ));
+        let scene = b.build();
+        let c = &scene.camera;
+        let s = scene.intersect(c.position, c.direction(3.3, 4.6), 0.0).expect("hits the light");
+        assert!(matches!(scene.materials[s.material as usize], Material::Emitter { light: 0 }));
+        assert!(s.ng.dot(c.forward()) < 0.0);
+    }
 }

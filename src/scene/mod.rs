@@ -1,8 +1,17 @@
-//! Scene descriptions (the proto `Scene`): validation, scene files, built-in scenes, and
-//! compilation into the tracer's `render::scene::Scene`.
+//! Scene descriptions (the proto `Scene`): validation and compilation into the tracer's scene,
+//! scene files (canonical protobuf JSON), and the built-in scenes.
 use crate::proto;
 use std::fmt;
 use std::path::{Path, PathBuf};
+
+pub mod builtin;
+mod compile;
+pub(crate) mod fields;
+pub mod json;
+pub mod meshfile;
+mod shapes;
+
+pub use compile::MAX_EXPONENT;
 
 /// A problem with one field of a request or scene, named by its path
 /// (e.g. `scene.lights[0].rect.edge_u: must be non-zero`).
@@ -29,28 +38,18 @@ pub struct SceneLimits {
     pub mesh_root: Option<PathBuf>,
 }
 
-/// Validates and compiles a scene. `base_dir` is where relative mesh paths start.
+impl Default for SceneLimits {
+    fn default() -> Self {
+        SceneLimits { max_triangles: 5_000_000, max_pixels: 4096 * 4096, mesh_root: None }
+    }
+}
+
+/// Validates and compiles a scene. `base_dir` is where relative mesh paths start. Errors name
+/// the field (`scene.shapes[2].sphere.radius: must be > 0, got -1`).
 pub fn compile(
     scene: &proto::Scene,
     limits: &SceneLimits,
     base_dir: Option<&Path>,
 ) -> Result<crate::render::scene::Scene, FieldError> {
-    let _ = (scene, limits, base_dir);
-    Err(FieldError { field: "scene".into(), message: "in progress".into() })
-}
-
-pub mod builtin {
-    use crate::proto;
-    pub struct BuiltinScene {
-        pub name: &'static str,
-        pub description: String,
-        pub scene: proto::Scene,
-    }
-    /// All built-in scenes, in a stable order.
-    pub fn list() -> Vec<BuiltinScene> {
-        Vec::new()
-    }
-    pub fn get(name: &str) -> Option<proto::Scene> {
-        list().into_iter().find(|s| s.name == name).map(|s| s.scene)
-    }
+    compile::compile(scene, limits, base_dir)
 }

@@ -1,0 +1,506 @@
+//! The frame as one single-part, multi-layer OpenEXR file: every map the method produced, at
+//! full f32 precision, losslessly compressed, with the render settings in the header. This is
+//! the file comparisons and error metrics are computed from; the PNGs are only for looking at.
+//!
+//! Channels (the exr crate stores them sorted by name, so reading looks them up by name):
+//! `R`,`G`,`B` colour; `spp.Y`; `filter_width.Y` (zeros for unfiltered methods);
+//! `unfiltered.R`,`.G`,`.B` only when the frame has an unfiltered colour.
+use std::collections::{BTreeMap, HashMap};
+use std::io::Cursor;
+use std::path::Path;
+
+use ::exr::prelude::{
+    AnyChannel, AnyChannels, AttributeValue, Blocks, Compression, Encoding, FlatSamples, Image,
+    Layer, LayerAttributes, LineOrder, ReadChannels, ReadLayers, Text, Vec2, WritableImage,
+};
+
+use super::exr_attributes::{attributes_as_text, from_attributes, to_attributes};
+use super::exr_canonical::sort_header_attributes;
+use super::{OutputError, OutputOptions};
+use crate::render::frame::{Frame, RenderInfo};
+
+/// ZIP over 16-scanline blocks, written in increasing line order: lossless and compact for
+/// float data, and with a fixed block order the parallel compressor's output is deterministic.
+const ENCODING: Encoding = Encoding {
+    compression: Compression::ZIP16,
+    blocks: Blocks::ScanLines,
+    line_order: LineOrder::Increasing,
+};
+
+const RGB: [&str; 3] = ["R", "G", "B"];
+const UNFILTERED_RGB: [&str; 3] = ["unfiltered.R", "unfiltered.G", "unfiltered.B"];
+const SPP: &str = "spp.Y";
+const FILTER_WIDTH: &str = "filter_width.Y";
+
+/// A file read back by `read_exr`.
+#[derive(Clone, Debug)]
+pub struct ExrImage {
+    /// The maps and stats. `filter_width` is `None` when the stored map is all zero (which is how
+    /// `write_exr` stores `None`); the seconds are 0 when the file was written reproducibly.
+    pub frame: Frame,
+    pub info: RenderInfo,
+    /// The `wedge.*` header attributes as text (numbers in Rust's shortest round-trip form,
+    /// vectors as "x y z"), for tests and tools.
+    pub attributes: BTreeMap<String, String>,
+}
+
+pub fn write_exr(
+    path: &Path,
+    frame: &Frame,
+    info: &RenderInfo,
+    opts: &OutputOptions,
+) -> Result<(), OutputError> {
+    let invalid = |reason: String| OutputError::InvalidInput {
+        path: path.to_path_buf(),
+        reason,
+    };
+    check_frame(frame).map_err(invalid)?;
+    let attributes = to_attributes(info, &frame.stats, !opts.reproducible).map_err(invalid)?;
+    let layer_attributes = LayerAttributes {
+        software_name: Some(Text::from(concat!("wedge ", env!("CARGO_PKG_VERSION")))),
+        other: attributes
+            .into_iter()
+            .map(|(name, value)| (Text::from(name), value))
+            .collect(),
+        ..LayerAttributes::default()
+    };
+    let size = (frame.width as usize, frame.height as usize);
+    let layer = Layer::new(size, layer_attributes, ENCODING, channels(frame));
+
+    let mut bytes = Vec::new();
+    Image::from_layer(layer)
+        .write()
+        .to_buffered(Cursor::new(&mut bytes))
+        .map_err(|source| exr_error(path, source))?;
+    // Only fails if the exr crate's output is not the format it claims; report, don't panic.
+    sort_header_attributes(&mut bytes).map_err(|e| {
+        let reason = format!("encoder wrote a header we cannot parse: {e}");
+        exr_error(path, ::exr::error::Error::Invalid(reason.into()))
+    })?;
+    std::fs::write(path, bytes).map_err(|source| OutputError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+pub fn read_exr(path: &Path) -> Result<ExrImage, OutputError> {
+    let image = ::exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .pedantic()
+        .from_file(path)
+        .map_err(|source| exr_error(path, source))?;
+    let not_wedge = |reason: String| OutputError::Format {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let layer = image.layer_data;
+    let (width, height) = (layer.size.width(), layer.size.height());
+    let pixel_count = width * height;
+
+    let channel = |name: &str| -> Result<Option<Vec<f32>>, OutputError> {
+        let Some(channel) = layer.channel_data.list.iter().find(|c| c.name.eq(name)) else {
+            return Ok(None);
+        };
+        if channel.sampling != Vec2(1, 1) {
+            return Err(not_wedge(format!("channel {name} is subsampled")));
+        }
+        let values: Vec<f32> = match &channel.sample_data {
+            FlatSamples::F32(values) => values.clone(),
+            other => other.values_as_f32().collect(),
+        };
+        if values.len() != pixel_count {
+            return Err(not_wedge(format!(
+                "channel {name} has {} samples",
+                values.len()
+            )));
+        }
+        Ok(Some(values))
+    };
+    let required =
+        |name: &str| channel(name)?.ok_or_else(|| not_wedge(format!("no {name} channel")));
+    let rgb = |names: [&str; 3]| -> Result<Option<Vec<[f32; 3]>>, OutputError> {
+        match names.map(channel) {
+            [Ok(Some(r)), Ok(Some(g)), Ok(Some(b))] => Ok(Some(interleave(&r, &g, &b))),
+            [Ok(None), Ok(None), Ok(None)] => Ok(None),
+            [Err(e), _, _] | [_, Err(e), _] | [_, _, Err(e)] => Err(e),
+            _ => Err(not_wedge(format!("only some of the channels {names:?}"))),
+        }
+    };
+
+    let color = rgb(RGB)?.ok_or_else(|| not_wedge(format!("no {RGB:?} channels")))?;
+    let unfiltered = rgb(UNFILTERED_RGB)?;
+    let spp = required(SPP)?;
+    let filter_width = Some(required(FILTER_WIDTH)?).filter(|w| w.iter().any(|&v| v != 0.0));
+
+    // Our attributes are layer attributes; merge the image-level ones in case another tool
+    // rewrote the file and moved them.
+    let mut attributes: HashMap<Text, AttributeValue> = image.attributes.other;
+    attributes.extend(layer.attributes.other);
+    let (info, stats) = from_attributes(&attributes).map_err(not_wedge)?;
+    let too_large = || not_wedge(format!("image size {width}x{height} exceeds u32"));
+    Ok(ExrImage {
+        frame: Frame {
+            width: u32::try_from(width).map_err(|_| too_large())?,
+            height: u32::try_from(height).map_err(|_| too_large())?,
+            color,
+            unfiltered,
+            spp,
+            filter_width,
+            stats,
+        },
+        info,
+        attributes: attributes_as_text(&attributes),
+    })
+}
+
+/// Rejects frames whose buffers disagree with their size, before the exr crate panics on them.
+fn check_frame(frame: &Frame) -> Result<(), String> {
+    let n = frame.pixel_count();
+    if n == 0 {
+        return Err(format!("empty {}x{} frame", frame.width, frame.height));
+    }
+    let lengths = [
+        ("colour", Some(frame.color.len())),
+        ("unfiltered colour", frame.unfiltered.as_ref().map(Vec::len)),
+        ("spp map", Some(frame.spp.len())),
+        (
+            "filter-width map",
+            frame.filter_width.as_ref().map(Vec::len),
+        ),
+    ];
+    for (what, len) in lengths {
+        if let Some(len) = len.filter(|&len| len != n) {
+            return Err(format!(
+                "{what} has {len} pixels, expected {}x{}",
+                frame.width, frame.height
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn channels(frame: &Frame) -> AnyChannels<FlatSamples> {
+    let filter_width = frame.filter_width.clone();
+    let filter_width = filter_width.unwrap_or_else(|| vec![0.0; frame.pixel_count()]);
+    let list = rgb_channels(RGB, &frame.color)
+        .into_iter()
+        .chain(
+            frame
+                .unfiltered
+                .iter()
+                .flat_map(|u| rgb_channels(UNFILTERED_RGB, u)),
+        )
+        .chain([
+            channel(SPP, frame.spp.clone()),
+            channel(FILTER_WIDTH, filter_width),
+        ]);
+    AnyChannels::sort(list.collect())
+}
+
+fn rgb_channels(names: [&str; 3], pixels: &[[f32; 3]]) -> [AnyChannel<FlatSamples>; 3] {
+    std::array::from_fn(|c| channel(names[c], pixels.iter().map(|p| p[c]).collect()))
+}
+
+fn channel(name: &str, values: Vec<f32>) -> AnyChannel<FlatSamples> {
+    AnyChannel {
+        name: Text::from(name),
+        sample_data: FlatSamples::F32(values),
+        // OpenEXR's default `pLinear` is 0 for every channel; the exr crate would guess it
+        // from the name, and it only matters to lossy compressors anyway.
+        quantize_linearly: false,
+        sampling: Vec2(1, 1),
+    }
+}
+
+fn interleave(r: &[f32], g: &[f32], b: &[f32]) -> Vec<[f32; 3]> {
+    r.iter()
+        .zip(g)
+        .zip(b)
+        .map(|((&r, &g), &b)| [r, g, b])
+        .collect()
+}
+
+fn exr_error(path: &Path, source: ::exr::error::Error) -> OutputError {
+    match source {
+        ::exr::error::Error::Io(source) => OutputError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+        source => OutputError::Exr {
+            path: path.to_path_buf(),
+            source,
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::output::exr_attributes::{METHOD_SECONDS, SECONDS};
+    use crate::output::exr_canonical::header_attributes;
+    use crate::output::test_util::TempDir;
+    use crate::render::frame::{CameraInfo, FrameStats, HaltReason};
+
+    fn info() -> RenderInfo {
+        RenderInfo {
+            scene: "cornell-box".into(),
+            method: "aaf".into(),
+            seed: 0xdead_beef_cafe_f00d,
+            bounces: 4,
+            camera: CameraInfo {
+                position: [0.0, 1.0, 3.5],
+                look_at: [0.0, 1.0, 0.0],
+                up: [0.0, 1.0, 0.0],
+                vertical_fov_deg: 45.0,
+            },
+        }
+    }
+
+    /// A frame whose values exercise the float encoding: NaN, infinities, -0, subnormals.
+    fn frame(width: u32, height: u32, filtered: bool) -> Frame {
+        let n = (width * height) as usize;
+        let special = [f32::NAN, f32::INFINITY, -0.0, 1e-40, -3.5, f32::MAX];
+        let value = |i: usize, c: usize| match (i * 3 + c) % 17 {
+            k @ 0..=5 => special[k],
+            k => (i * 7 + c) as f32 * 0.013 + k as f32,
+        };
+        let rgb = |offset: usize| {
+            (0..n)
+                .map(|i| [0, 1, 2].map(|c| value(i + offset, c)))
+                .collect()
+        };
+        Frame {
+            width,
+            height,
+            color: rgb(0),
+            unfiltered: filtered.then(|| rgb(5)),
+            spp: (0..n).map(|i| (i % 5 * 4) as f32).collect(),
+            filter_width: filtered.then(|| (0..n).map(|i| (i + 1) as f32 * 0.25).collect()),
+            stats: FrameStats {
+                pass: 3,
+                mean_spp: 7.75,
+                rays_traced: 123_456_789_012,
+                elapsed_seconds: 1.5,
+                is_final: true,
+                halt_reason: HaltReason::MaxSpp,
+                dropped_samples: 2,
+                method_seconds: 0.25,
+            },
+        }
+    }
+
+    fn rgb_bits(pixels: &[[f32; 3]]) -> Vec<[u32; 3]> {
+        pixels.iter().map(|p| p.map(f32::to_bits)).collect()
+    }
+
+    fn bits(values: &[f32]) -> Vec<u32> {
+        values.iter().map(|v| v.to_bits()).collect()
+    }
+
+    fn assert_same_pixels(read: &Frame, written: &Frame) {
+        assert_eq!((read.width, read.height), (written.width, written.height));
+        assert_eq!(rgb_bits(&read.color), rgb_bits(&written.color));
+        assert_eq!(
+            read.unfiltered.as_deref().map(rgb_bits),
+            written.unfiltered.as_deref().map(rgb_bits)
+        );
+        assert_eq!(bits(&read.spp), bits(&written.spp));
+        assert_eq!(
+            read.filter_width.as_deref().map(bits),
+            written.filter_width.as_deref().map(bits)
+        );
+    }
+
+    const REPRODUCIBLE: OutputOptions = OutputOptions { reproducible: true };
+    const TIMED: OutputOptions = OutputOptions {
+        reproducible: false,
+    };
+
+    #[test]
+    fn round_trip_is_bit_exact() {
+        let dir = TempDir::new("exr_round_trip");
+        for (width, height) in [(3, 5), (1, 1), (17, 2), (40, 33)] {
+            let path = dir.path().join(format!("{width}x{height}.exr"));
+            let written = frame(width, height, true);
+            write_exr(&path, &written, &info(), &TIMED).unwrap();
+            let read = read_exr(&path).unwrap();
+            assert_same_pixels(&read.frame, &written);
+            assert_eq!(read.frame.stats, written.stats);
+            assert_eq!(read.info, info());
+        }
+    }
+
+    #[test]
+    fn round_trip_without_unfiltered_or_filter_width() {
+        let dir = TempDir::new("exr_unfiltered");
+        let path = dir.path().join("f.exr");
+        let written = frame(3, 5, false);
+        write_exr(&path, &written, &info(), &REPRODUCIBLE).unwrap();
+        let read = read_exr(&path).unwrap();
+        assert_same_pixels(&read.frame, &written);
+        assert!(read.frame.unfiltered.is_none() && read.frame.filter_width.is_none());
+        let expected_stats = FrameStats {
+            elapsed_seconds: 0.0,
+            method_seconds: 0.0,
+            ..written.stats
+        };
+        assert_eq!(read.frame.stats, expected_stats);
+        assert_eq!(read.info, info());
+    }
+
+    #[test]
+    fn all_zero_filter_width_reads_back_as_none() {
+        // `write_exr` stores `None` as zeros, so zeros are all `read_exr` can give back; `Frame`
+        // treats the two alike (`filter_width_at` is 0 either way).
+        let dir = TempDir::new("exr_zero_width");
+        let path = dir.path().join("f.exr");
+        let mut written = frame(3, 5, true);
+        written.filter_width = Some(vec![0.0; 15]);
+        write_exr(&path, &written, &info(), &REPRODUCIBLE).unwrap();
+        let read = read_exr(&path).unwrap().frame;
+        assert!(read.filter_width.is_none());
+        assert!(read.unfiltered.is_some());
+    }
+
+    #[test]
+    fn channels_compression_and_software_are_as_documented() {
+        let dir = TempDir::new("exr_channels");
+        for filtered in [true, false] {
+            let path = dir.path().join(format!("{filtered}.exr"));
+            write_exr(&path, &frame(3, 5, filtered), &info(), &REPRODUCIBLE).unwrap();
+            let image = ::exr::prelude::read_first_flat_layer_from_file(&path).unwrap();
+            let layer = &image.layer_data;
+            let names: Vec<String> = layer
+                .channel_data
+                .list
+                .iter()
+                .map(|c| c.name.to_string())
+                .collect();
+            let mut expected = vec!["B", "G", "R", "filter_width.Y", "spp.Y"];
+            if filtered {
+                expected.extend(["unfiltered.B", "unfiltered.G", "unfiltered.R"]);
+            }
+            assert_eq!(names, expected);
+            let all_f32 = layer
+                .channel_data
+                .list
+                .iter()
+                .all(|c| matches!(c.sample_data, FlatSamples::F32(_)));
+            assert!(all_f32);
+            assert_eq!(layer.encoding.compression, Compression::ZIP16);
+            let software = layer.attributes.software_name.as_ref().unwrap();
+            assert_eq!(
+                software.to_string(),
+                format!("wedge {}", env!("CARGO_PKG_VERSION"))
+            );
+        }
+    }
+
+    #[test]
+    fn writes_are_byte_identical() {
+        let dir = TempDir::new("exr_deterministic");
+        let write = |name: &str, frame: &Frame, opts: &OutputOptions| {
+            let path = dir.path().join(name);
+            write_exr(&path, frame, &info(), opts).unwrap();
+            std::fs::read(path).unwrap()
+        };
+        let frame_a = frame(40, 33, true);
+        // Both option values are deterministic for the same frame.
+        for opts in [REPRODUCIBLE, TIMED] {
+            assert_eq!(
+                write("a.exr", &frame_a, &opts),
+                write("b.exr", &frame_a, &opts)
+            );
+        }
+        // Reproducible files do not depend on how long the render took.
+        let mut frame_b = frame_a.clone();
+        frame_b.stats.elapsed_seconds = 99.0;
+        frame_b.stats.method_seconds = 12.0;
+        assert_eq!(
+            write("a.exr", &frame_a, &REPRODUCIBLE),
+            write("b.exr", &frame_b, &REPRODUCIBLE)
+        );
+        assert_ne!(
+            write("a.exr", &frame_a, &TIMED),
+            write("b.exr", &frame_b, &TIMED)
+        );
+    }
+
+    #[test]
+    fn timed_and_reproducible_files_differ_only_in_the_times() {
+        let dir = TempDir::new("exr_times");
+        let written = frame(3, 5, true);
+        let read = |opts: &OutputOptions| {
+            let path = dir.path().join(format!("{}.exr", opts.reproducible));
+            write_exr(&path, &written, &info(), opts).unwrap();
+            read_exr(&path).unwrap()
+        };
+        let (timed, reproducible) = (read(&TIMED), read(&REPRODUCIBLE));
+        assert_same_pixels(&timed.frame, &reproducible.frame);
+        assert_eq!(timed.info, reproducible.info);
+        assert_eq!(timed.attributes[SECONDS], "1.5");
+        assert_eq!(timed.attributes[METHOD_SECONDS], "0.25");
+        let mut without_times = timed.attributes.clone();
+        without_times.remove(SECONDS);
+        without_times.remove(METHOD_SECONDS);
+        assert_eq!(without_times, reproducible.attributes);
+        let stats_without_times = FrameStats {
+            elapsed_seconds: 0.0,
+            method_seconds: 0.0,
+            ..timed.frame.stats
+        };
+        assert_eq!(stats_without_times, reproducible.frame.stats);
+    }
+
+    #[test]
+    fn header_attributes_are_sorted_by_name() {
+        let dir = TempDir::new("exr_sorted");
+        let path = dir.path().join("f.exr");
+        write_exr(&path, &frame(3, 5, true), &info(), &TIMED).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let names: Vec<&[u8]> = header_attributes(&bytes)
+            .unwrap()
+            .iter()
+            .map(|a| a.name(&bytes))
+            .collect();
+        assert!(names.windows(2).all(|w| w[0] < w[1]), "{names:?}");
+        assert!(names.contains(&&b"wedge.seed"[..]) && names.contains(&&b"software"[..]));
+    }
+
+    #[test]
+    fn inconsistent_frames_are_rejected_naming_the_file() {
+        let dir = TempDir::new("exr_invalid");
+        let path = dir.path().join("bad.exr");
+        let mut short_spp = frame(3, 5, true);
+        short_spp.spp.pop();
+        let mut long_width = frame(3, 5, true);
+        long_width.filter_width.as_mut().unwrap().push(1.0);
+        for bad in [short_spp, long_width, Frame::default()] {
+            let error = write_exr(&path, &bad, &info(), &REPRODUCIBLE).unwrap_err();
+            assert!(matches!(error, OutputError::InvalidInput { .. }), "{error}");
+            assert!(error.to_string().contains("bad.exr"), "{error}");
+            assert!(!path.exists());
+        }
+    }
+
+    #[test]
+    fn reading_names_the_file_and_what_is_missing() {
+        let dir = TempDir::new("exr_foreign");
+        let missing = dir.path().join("missing.exr");
+        let error = read_exr(&missing).unwrap_err();
+        assert!(matches!(error, OutputError::Io { .. }), "{error}");
+        assert!(error.to_string().contains("missing.exr"), "{error}");
+
+        // A plain RGB file from another tool: no spp channel, no wedge attributes.
+        let foreign = dir.path().join("foreign.exr");
+        ::exr::prelude::write_rgb_file(&foreign, 2, 2, |_, _| (0.5f32, 0.5f32, 0.5f32)).unwrap();
+        let error = read_exr(&foreign).unwrap_err();
+        assert!(matches!(error, OutputError::Format { .. }), "{error}");
+        assert!(error.to_string().contains("foreign.exr"), "{error}");
+        assert!(error.to_string().contains("spp.Y"), "{error}");
+    }
+}

@@ -1,0 +1,124 @@
+//! Per-pixel running estimates (f64 sums) and the parallel loop that adds samples to them.
+use super::integrator::trace_path;
+use super::progressive::RenderError;
+use super::sampler::PixelSampler;
+use super::scene::Scene;
+use super::strategy::StopCheck;
+use rayon::prelude::*;
+
+/// Rows per unit of parallel work. Stop requests are checked before every row.
+const BAND_ROWS: usize = 4;
+
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PixelEstimate {
+    pub sum: [f64; 3],
+    /// Finite samples in `sum`.
+    pub n: u32,
+    /// Samples drawn, including dropped non-finite ones: the next sample's index.
+    pub taken: u32,
+}
+
+impl PixelEstimate {
+    pub fn mean(&self) -> [f32; 3] {
+        if self.n == 0 {
+            return [0.0; 3];
+        }
+        let k = 1.0 / self.n as f64;
+        self.sum.map(|s| (s * k) as f32)
+    }
+}
+
+/// What one call of `Film::add_samples` did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Tally {
+    pub rays: u64,
+    pub dropped: u64,
+    /// False when the deadline stopped the pass before every pixel got its samples.
+    pub complete: bool,
+}
+
+#[derive(Clone, Debug)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<PixelEstimate>,
+}
+
+impl Film {
+    pub fn new(width: u32, height: u32) -> Self {
+        Film { width, height, pixels: vec![PixelEstimate::default(); width as usize * height as usize] }
+    }
+
+    /// Traces `count(pixel_index)` more camera paths for every pixel, in parallel over bands of
+    /// rows. Each sample's numbers depend only on (seed, pixel, sample index), so the result is
+    /// the same for any thread count. Non-finite path values are counted and dropped.
+    pub fn add_samples(
+        &mut self,
+        scene: &Scene,
+        seed: u64,
+        bounces: u32,
+        count: &(dyn Fn(usize) -> u32 + Sync),
+        stop: &StopCheck,
+    ) -> Result<Tally, RenderError> {
+        let w = self.width as usize;
+        let cam = &scene.camera;
+        let tallies: Vec<Tally> = self
+            .pixels
+            .par_chunks_mut(w * BAND_ROWS)
+            .enumerate()
+            .map(|(band, rows)| {
+                let mut t = Tally { complete: true, ..Tally::default() };
+                for (r, row) in rows.chunks_mut(w).enumerate() {
+                    if stop.should_stop() {
+                        t.complete = false;
+                        return t;
+                    }
+                    let y = band * BAND_ROWS + r;
+                    for (x, px) in row.iter_mut().enumerate() {
+                        let index = y * w + x;
+                        for _ in 0..count(index) {
+                            let mut sampler = PixelSampler::new(seed, index as u32, px.taken);
+                            px.taken += 1;
+                            let j = sampler.next_2d();
+                            let dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
+                            let p = trace_path(scene, cam.position, dir, bounces, &mut sampler);
+                            t.rays += p.rays as u64;
+                            if p.radiance.is_finite() {
+                                for c in 0..3 {
+                                    px.sum[c] += p.radiance[c] as f64;
+                                }
+                                px.n += 1;
+                            } else {
+                                t.dropped += 1;
+                            }
+                        }
+                    }
+                }
+                t
+            })
+            .collect();
+        if stop.is_cancelled() {
+            return Err(RenderError::Cancelled);
+        }
+        Ok(tallies.iter().fold(Tally { complete: true, ..Tally::default() }, |a, t| Tally {
+            rays: a.rays + t.rays,
+            dropped: a.dropped + t.dropped,
+            complete: a.complete && t.complete,
+        }))
+    }
+
+    pub fn mean_image(&self) -> Vec<[f32; 3]> {
+        self.pixels.iter().map(PixelEstimate::mean).collect()
+    }
+
+    pub fn spp_map(&self) -> Vec<f32> {
+        self.pixels.iter().map(|p| p.n as f32).collect()
+    }
+
+    pub fn mean_spp(&self) -> f64 {
+        if self.pixels.is_empty() {
+            return 0.0;
+        }
+        self.pixels.iter().map(|p| p.n as f64).sum::<f64>() / self.pixels.len() as f64
+    }
+}

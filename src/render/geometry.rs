@@ -1,0 +1,294 @@
+//! Triangles and their acceleration structure (obvhs CWBVH): closest hit and occlusion.
+use glam::{Vec2, Vec3, Vec3A};
+use obvhs::{
+    cwbvh::{builder::build_cwbvh_from_tris, CwBvh},
+    ray::{Ray, RayHit},
+    rt_triangle::RtTriangle,
+    triangle::Triangle,
+    BvhBuildParams,
+};
+use std::time::Duration;
+
+/// Marks an absent per-triangle attribute.
+pub const NONE: u32 = u32::MAX;
+
+/// What a triangle belongs to. Shading normals and texture coordinates live in side tables so
+/// that meshes without them cost nothing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TriAttr {
+    pub material: u32,
+    /// Shape (object) id, for G-buffer id checks.
+    pub object: u32,
+    /// Index into the normals table, or NONE (flat shading).
+    pub normals: u32,
+    /// Index into the uv table, or NONE (barycentric uvs).
+    pub uvs: u32,
+}
+
+/// Collects triangles before the BVH is built.
+#[derive(Default, Clone, Debug)]
+pub struct GeometryBuilder {
+    pub positions: Vec<[Vec3; 3]>,
+    pub attrs: Vec<TriAttr>,
+    pub normals: Vec<[Vec3; 3]>,
+    pub uvs: Vec<[Vec2; 3]>,
+    /// Zero-area triangles left out (they can never be hit and have no normal).
+    pub degenerate: usize,
+}
+
+impl GeometryBuilder {
+    pub fn push(
+        &mut self,
+        p: [Vec3; 3],
+        normals: Option<[Vec3; 3]>,
+        uvs: Option<[Vec2; 3]>,
+        material: u32,
+        object: u32,
+    ) {
+        let area2 = (p[1] - p[0]).cross(p[2] - p[0]).length();
+        if !(area2 > 0.0 && area2.is_finite()) {
+            self.degenerate += 1;
+            return;
+        }
+        let normals = match normals {
+            Some(n) if n.iter().all(|v| v.is_finite() && v.length_squared() > 0.0) => {
+                self.normals.push(n.map(Vec3::normalize));
+                (self.normals.len() - 1) as u32
+            }
+            _ => NONE,
+        };
+        let uvs = match uvs {
+            Some(uv) => {
+                self.uvs.push(uv);
+                (self.uvs.len() - 1) as u32
+            }
+            None => NONE,
+        };
+        self.positions.push(p);
+        self.attrs.push(TriAttr { material, object, normals, uvs });
+    }
+
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// Applies `f` to every position and shading normal (`g` maps normals).
+    pub fn transform(&mut self, f: impl Fn(Vec3) -> Vec3, g: impl Fn(Vec3) -> Vec3) {
+        for t in &mut self.positions {
+            *t = t.map(&f);
+        }
+        for n in &mut self.normals {
+            *n = n.map(|v| g(v).normalize_or_zero());
+        }
+    }
+
+    pub fn build(self) -> Geometry {
+        if self.positions.is_empty() {
+            return Geometry { bvh: None, tris: Vec::new(), attrs: Vec::new(), normals: self.normals, uvs: self.uvs };
+        }
+        let input: Vec<Triangle> = self
+            .positions
+            .iter()
+            .map(|p| Triangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() })
+            .collect();
+        let mut build_time = Duration::ZERO;
+        let bvh = build_cwbvh_from_tris(&input, BvhBuildParams::medium_build(), &mut build_time);
+        // Store triangles in BVH slot order so a hit's primitive_id indexes them directly.
+        let tris = bvh.primitive_indices.iter().map(|&i| RtTriangle::from(&input[i as usize])).collect();
+        let attrs = bvh.primitive_indices.iter().map(|&i| self.attrs[i as usize]).collect();
+        Geometry { bvh: Some(bvh), tris, attrs, normals: self.normals, uvs: self.uvs }
+    }
+}
+
+/// Turns -0.0 components into +0.0: obvhs's CWBVH traversal misses some hits of rays with a
+/// -0.0 direction component (axis-aligned rays against flat boxes; see the test below), and
+/// x + 0.0 is +0.0 for x = -0.0 and x otherwise.
+#[inline]
+fn canonical(d: Vec3) -> Vec3 {
+    d + Vec3::ZERO
+}
+
+/// A ray-surface intersection, before shading.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    /// Triangle slot (index into `Geometry::tris`/`attrs`).
+    pub slot: u32,
+    /// Barycentric weights of the second and third vertex.
+    pub b1: f32,
+    pub b2: f32,
+}
+
+pub struct Geometry {
+    bvh: Option<CwBvh>,
+    pub tris: Vec<RtTriangle>,
+    pub attrs: Vec<TriAttr>,
+    pub normals: Vec<[Vec3; 3]>,
+    pub uvs: Vec<[Vec2; 3]>,
+}
+
+impl std::fmt::Debug for Geometry {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Geometry").field("triangles", &self.tris.len()).finish()
+    }
+}
+
+impl Geometry {
+    pub fn triangle_count(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// Closest hit with t in [tmin, tmax].
+    #[inline]
+    pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
+        let bvh = self.bvh.as_ref()?;
+        let ray = Ray::new(origin.into(), canonical(dir).into(), tmin, tmax);
+        let mut hit = RayHit::none();
+        if !bvh.ray_traverse(ray, &mut hit, |r, id| self.tris[id].intersect(r)) {
+            return None;
+        }
+        let tri = &self.tris[hit.primitive_id as usize];
+        let b = tri.compute_barycentric(&ray);
+        Some(Hit { t: hit.t, slot: hit.primitive_id, b1: b.x, b2: b.y })
+    }
+
+    /// True when something lies on the segment origin + t dir, t in [tmin, tmax].
+    #[inline]
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
+        let Some(bvh) = self.bvh.as_ref() else { return false };
+        let ray = Ray::new(origin.into(), canonical(dir).into(), tmin, tmax);
+        // ray_traverse_miss returns true when NOT occluded.
+        !bvh.ray_traverse_miss(ray, |r, id| self.tris[id].intersect(r))
+    }
+
+    /// Geometric (unnormalised-orientation) unit normal of a slot: (v1 - v0) x (v2 - v0).
+    #[inline]
+    pub fn geometric_normal(&self, slot: u32) -> Vec3 {
+        // RtTriangle stores ng = (v0 - v1) x (v2 - v0) = -(v1 - v0) x (v2 - v0).
+        Vec3::from(-self.tris[slot as usize].ng).normalize()
+    }
+
+    /// The three vertices of a slot.
+    pub fn vertices(&self, slot: u32) -> [Vec3; 3] {
+        let t = &self.tris[slot as usize];
+        let v0: Vec3A = t.v0;
+        [v0.into(), (v0 - t.e1).into(), (v0 + t.e2).into()]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Deterministic xorshift for test data.
+    struct Rng(u64);
+    impl Rng {
+        fn f(&mut self) -> f32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 40) as f32 / (1u64 << 24) as f32
+        }
+        fn v(&mut self) -> Vec3 {
+            Vec3::new(self.f(), self.f(), self.f()) * 2.0 - 1.0
+        }
+    }
+
+    fn brute_force(tris: &[[Vec3; 3]], o: Vec3, d: Vec3, tmax: f32) -> Option<(f32, usize)> {
+        let mut best: Option<(f32, usize)> = None;
+        for (i, p) in tris.iter().enumerate() {
+            let t = RtTriangle::new(p[0].into(), p[1].into(), p[2].into())
+                .intersect(&Ray::new(o.into(), d.into(), 0.0, tmax));
+            if t < best.map_or(tmax, |b| b.0) {
+                best = Some((t, i));
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn bvh_hits_equal_brute_force_on_random_triangles() {
+        let mut rng = Rng(0x1234_5678);
+        let mut b = GeometryBuilder::default();
+        let mut tris = Vec::new();
+        for i in 0..2000 {
+            let c = rng.v() * 4.0;
+            let p = [c + rng.v() * 0.3, c + rng.v() * 0.3, c + rng.v() * 0.3];
+            tris.push(p);
+            b.push(p, None, None, 0, i);
+        }
+        assert_eq!(b.degenerate, 0);
+        let g = b.build();
+        let (mut hits, mut occl) = (0, 0);
+        for _ in 0..3000 {
+            let o = rng.v() * 6.0;
+            let d = rng.v().normalize();
+            let tmax = 1.0 + rng.f() * 10.0;
+            let expect = brute_force(&tris, o, d, tmax);
+            let got = g.intersect(o, d, 0.0, tmax);
+            match (expect, got) {
+                (None, None) => {}
+                (Some((t, i)), Some(h)) => {
+                    hits += 1;
+                    assert!((t - h.t).abs() <= 1e-5 * t.max(1.0), "t {t} vs {}", h.t);
+                    // Same triangle (the object id carries the original index).
+                    if (t - h.t).abs() < 1e-7 {
+                        assert_eq!(g.attrs[h.slot as usize].object as usize, i);
+                    }
+                }
+                (e, h) => panic!("brute force {e:?} vs bvh {h:?}"),
+            }
+            if g.occluded(o, d, 0.0, tmax) {
+                occl += 1;
+            }
+            assert_eq!(g.occluded(o, d, 0.0, tmax), expect.is_some());
+        }
+        assert!(hits > 300 && occl == hits, "hits {hits} occl {occl}");
+    }
+
+    #[test]
+    fn barycentrics_reconstruct_the_hit_point() {
+        let mut b = GeometryBuilder::default();
+        let p = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 3.0, 0.0)];
+        b.push(p, None, None, 0, 0);
+        let g = b.build();
+        let o = Vec3::new(0.5, 1.0, 5.0);
+        let h = g.intersect(o, Vec3::NEG_Z, 0.0, f32::INFINITY).unwrap();
+        let v = g.vertices(h.slot);
+        let x = v[0] * (1.0 - h.b1 - h.b2) + v[1] * h.b1 + v[2] * h.b2;
+        assert!((x - Vec3::new(0.5, 1.0, 0.0)).length() < 1e-6);
+        assert!((h.t - 5.0).abs() < 1e-6);
+        assert!((g.geometric_normal(h.slot) - Vec3::Z).length() < 1e-6);
+    }
+
+    #[test]
+    fn axis_aligned_rays_with_negative_zero_components_hit_flat_geometry() {
+        let mut b = GeometryBuilder::default();
+        let (c, u, v) = (Vec3::new(-2.0, 0.0, -2.0), Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 4.0));
+        b.push([c, c + u, c + u + v], None, None, 0, 0);
+        b.push([c, c + u + v, c + v], None, None, 0, 0);
+        let g = b.build();
+        let o = Vec3::new(0.3, 3.0, 0.2);
+        for d in [Vec3::NEG_Y, Vec3::new(-0.0, -1.0, -0.0)] {
+            assert_eq!(g.intersect(o, d, 0.0, f32::INFINITY).map(|h| h.t), Some(3.0), "{d:?}");
+            assert!(g.occluded(o, d, 0.0, 10.0), "{d:?}");
+        }
+    }
+
+    #[test]
+    fn degenerate_and_empty_geometry_are_harmless() {
+        let mut b = GeometryBuilder::default();
+        b.push([Vec3::ZERO, Vec3::X, Vec3::X * 2.0], None, None, 0, 0);
+        b.push([Vec3::ZERO, Vec3::ZERO, Vec3::ZERO], None, None, 0, 0);
+        b.push([Vec3::ZERO, Vec3::NAN, Vec3::X], None, None, 0, 0);
+        assert_eq!(b.degenerate, 3);
+        let g = b.build();
+        assert_eq!(g.triangle_count(), 0);
+        assert!(g.intersect(Vec3::ZERO, Vec3::X, 0.0, 1.0).is_none());
+        assert!(!g.occluded(Vec3::ZERO, Vec3::X, 0.0, 1.0));
+    }
+}

@@ -1,0 +1,142 @@
+//! Tests of the pass loop on a small analytic-ish scene.
+use super::*;
+use crate::render::light::{EmissionProfile, RectLight};
+use crate::render::material::Material;
+use crate::render::scene::{CameraDesc, SceneBuilder};
+use crate::render::texture::Texture;
+use glam::Vec3;
+
+/// A box-like room: floor, back wall, a small occluder and a square light.
+pub(crate) fn small_scene(width: u32, height: u32) -> Arc<Scene> {
+    let mut b = SceneBuilder::new(CameraDesc {
+        position: Vec3::new(0.0, 1.0, 3.0),
+        look_at: Vec3::new(0.0, 0.5, 0.0),
+        up: Vec3::Y,
+        vertical_fov_deg: 50.0,
+        width,
+        height,
+    });
+    let white = b.add_material(Material::Lambertian { albedo: Texture::Constant(Vec3::splat(0.7)) });
+    let mut quad = |b: &mut SceneBuilder, c: Vec3, u: Vec3, v: Vec3| {
+        let o = b.new_object();
+        b.geometry.push([c, c + u, c + u + v], None, None, white, o);
+        b.geometry.push([c, c + u + v, c + v], None, None, white, o);
+    };
+    quad(&mut b, Vec3::new(-2.0, 0.0, -2.0), Vec3::new(0.0, 0.0, 4.0), Vec3::new(4.0, 0.0, 0.0));
+    quad(&mut b, Vec3::new(-2.0, 0.0, -1.0), Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 3.0, 0.0));
+    quad(&mut b, Vec3::new(-0.3, 0.5, -0.3), Vec3::new(0.0, 0.0, 0.6), Vec3::new(0.6, 0.0, 0.0));
+    b.add_rect_light(RectLight::new(
+        Vec3::new(-0.5, 2.0, -0.5),
+        Vec3::new(1.0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::splat(5.0),
+        EmissionProfile::Uniform,
+    ));
+    Arc::new(b.build())
+}
+
+fn job(scene: Arc<Scene>, halt: Halt) -> RenderJob {
+    RenderJob { scene, method: Method::Uniform, halt, seed: 7, bounces: 1, initial_spp: 1 }
+}
+
+fn frames(job: &RenderJob) -> Vec<Frame> {
+    let mut out = Vec::new();
+    render(job, &CancelToken::new(), &mut |f| {
+        out.push(f.clone());
+        true
+    })
+    .unwrap();
+    out
+}
+
+#[test]
+fn passes_refine_with_non_decreasing_spp_and_halt_on_max_passes() {
+    let j = job(small_scene(16, 12), Halt { max_passes: 4, max_mean_spp: 0.0, time_budget: None });
+    let f = frames(&j);
+    assert_eq!(f.len(), 4);
+    for (k, fr) in f.iter().enumerate() {
+        assert_eq!(fr.stats.pass, k as u32);
+        assert_eq!(fr.stats.mean_spp, (1u64 << k) as f64);
+        assert!(fr.spp.iter().all(|&s| s == (1u64 << k) as f32));
+        assert_eq!(fr.stats.is_final, k == 3);
+        assert!(fr.color.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+    }
+    assert_eq!(f[3].stats.halt_reason, HaltReason::MaxPasses);
+    assert!(f.windows(2).all(|w| w[1].stats.rays_traced > w[0].stats.rays_traced));
+}
+
+#[test]
+fn max_spp_halts_exactly_at_the_requested_count() {
+    let j = job(small_scene(8, 8), Halt { max_passes: 100, max_mean_spp: 10.0, time_budget: None });
+    let f = frames(&j);
+    let last = f.last().unwrap();
+    assert_eq!(last.stats.mean_spp, 10.0);
+    assert_eq!(last.stats.halt_reason, HaltReason::MaxSpp);
+}
+
+#[test]
+fn time_budget_halts_after_at_least_one_frame() {
+    let j = job(small_scene(8, 8), Halt { max_passes: 1000, max_mean_spp: 0.0, time_budget: Some(Duration::ZERO) });
+    let f = frames(&j);
+    assert_eq!(f.len(), 1);
+    assert_eq!(f[0].stats.halt_reason, HaltReason::TimeBudget);
+}
+
+#[test]
+fn image_is_bit_identical_whatever_the_thread_count() {
+    let j = job(small_scene(20, 14), Halt { max_passes: 3, max_mean_spp: 0.0, time_budget: None });
+    let run = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| frames(&j)).pop().unwrap()
+    };
+    let (a, b) = (run(1), run(3));
+    let bits = |f: &Frame| f.color.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&a), bits(&b));
+    assert_eq!(a.stats.rays_traced, b.stats.rays_traced);
+    // And a different seed changes it.
+    let mut j2 = j.clone();
+    j2.seed = 8;
+    let c = frames(&j2).pop().unwrap();
+    assert_ne!(bits(&a), bits(&c));
+}
+
+#[test]
+fn cancellation_stops_the_render() {
+    let j = job(small_scene(8, 8), Halt { max_passes: 50, max_mean_spp: 0.0, time_budget: None });
+    let cancel = CancelToken::new();
+    let mut seen = 0;
+    let r = render(&j, &cancel, &mut |_| {
+        seen += 1;
+        if seen == 2 {
+            cancel.cancel();
+        }
+        true
+    });
+    assert_eq!(r, Err(RenderError::Cancelled));
+    assert_eq!(seen, 2);
+    // A callback refusing a frame stops it too.
+    assert_eq!(render(&j, &CancelToken::new(), &mut |_| false), Err(RenderError::Cancelled));
+}
+
+#[test]
+fn more_samples_converge_towards_a_reference() {
+    // RMSE against a 256 spp render (another seed) falls as passes add samples.
+    let scene = small_scene(12, 10);
+    let mut rj = job(scene.clone(), Halt { max_passes: 9, max_mean_spp: 256.0, time_budget: None });
+    rj.seed = 1234;
+    let reference = frames(&rj).pop().unwrap();
+    let f = frames(&job(scene, Halt { max_passes: 6, max_mean_spp: 0.0, time_budget: None }));
+    let rmse = |fr: &Frame| {
+        let se: f64 = fr
+            .color
+            .iter()
+            .zip(&reference.color)
+            .flat_map(|(a, b)| (0..3).map(move |c| (a[c] as f64 - b[c] as f64).powi(2)))
+            .sum();
+        (se / (3 * fr.color.len()) as f64).sqrt()
+    };
+    let e: Vec<f64> = f.iter().map(rmse).collect();
+    // 1 spp vs 32 spp: error should fall by roughly sqrt(32) ~ 5.7; demand at least 2.5x.
+    assert!(e[0] > 2.5 * e[5], "{e:?}");
+    assert!(e[5] < e[3] && e[3] < e[1], "{e:?}");
+}

@@ -1,0 +1,120 @@
+//! Counters shared by the server's handlers and render tasks; tests read them to see that a
+//! cancelled render really stopped.
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::Arc;
+
+#[derive(Debug, Default)]
+pub struct ServerState {
+    active_renders: AtomicUsize,
+    renders_started: AtomicU64,
+    renders_finished: AtomicU64,
+    renders_cancelled: AtomicU64,
+    renders_failed: AtomicU64,
+}
+
+/// How a render task ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RenderOutcome {
+    /// Reached a halt condition.
+    Finished,
+    /// The client cancelled or went away.
+    Cancelled,
+    /// The render panicked or ended with an error.
+    Failed,
+}
+
+impl ServerState {
+    pub fn new() -> Arc<Self> {
+        Arc::new(Self::default())
+    }
+
+    /// Render tasks running now (including ones winding down after a cancellation).
+    pub fn active_renders(&self) -> usize {
+        self.active_renders.load(Ordering::SeqCst)
+    }
+
+    /// Renders started since the server started.
+    pub fn renders_started(&self) -> u64 {
+        self.renders_started.load(Ordering::SeqCst)
+    }
+
+    pub fn renders_finished(&self) -> u64 {
+        self.renders_finished.load(Ordering::SeqCst)
+    }
+
+    pub fn renders_cancelled(&self) -> u64 {
+        self.renders_cancelled.load(Ordering::SeqCst)
+    }
+
+    pub fn renders_failed(&self) -> u64 {
+        self.renders_failed.load(Ordering::SeqCst)
+    }
+
+    /// Counts a render as started and active until the returned guard is dropped.
+    pub fn begin_render(self: &Arc<Self>) -> ActiveRender {
+        let id = self.renders_started.fetch_add(1, Ordering::SeqCst) + 1;
+        self.active_renders.fetch_add(1, Ordering::SeqCst);
+        ActiveRender {
+            state: Arc::clone(self),
+            id,
+            outcome: RenderOutcome::Failed,
+        }
+    }
+}
+
+/// Keeps a render counted as active; dropping it (also on unwinding) ends the render with the
+/// outcome last set (`Failed` unless `set_outcome` was called).
+#[derive(Debug)]
+pub struct ActiveRender {
+    state: Arc<ServerState>,
+    id: u64,
+    outcome: RenderOutcome,
+}
+
+impl ActiveRender {
+    /// 1-based number of this render since the server started (for logs).
+    pub fn id(&self) -> u64 {
+        self.id
+    }
+
+    pub fn set_outcome(&mut self, outcome: RenderOutcome) {
+        self.outcome = outcome;
+    }
+}
+
+impl Drop for ActiveRender {
+    fn drop(&mut self) {
+        let counter = match self.outcome {
+            RenderOutcome::Finished => &self.state.renders_finished,
+            RenderOutcome::Cancelled => &self.state.renders_cancelled,
+            RenderOutcome::Failed => &self.state.renders_failed,
+        };
+        counter.fetch_add(1, Ordering::SeqCst);
+        self.state.active_renders.fetch_sub(1, Ordering::SeqCst);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn guard_counts_and_releases() {
+        let state = ServerState::new();
+        let mut a = state.begin_render();
+        let b = state.begin_render();
+        assert_eq!((a.id(), b.id()), (1, 2));
+        assert_eq!((state.active_renders(), state.renders_started()), (2, 2));
+        a.set_outcome(RenderOutcome::Cancelled);
+        drop(a);
+        assert_eq!(state.active_renders(), 1);
+        assert_eq!(state.renders_cancelled(), 1);
+        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || {
+            let _b = b;
+            panic!("render blew up");
+        }));
+        assert!(r.is_err());
+        assert_eq!(state.active_renders(), 0);
+        assert_eq!(state.renders_failed(), 1);
+    }
+}
