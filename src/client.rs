@@ -24,10 +24,7 @@ impl std::error::Error for RemoteError {}
 
 impl From<tonic::Status> for RemoteError {
     fn from(status: tonic::Status) -> Self {
-        RemoteError {
-            code: status.code(),
-            message: status.message().to_string(),
-        }
+        RemoteError { code: status.code(), message: status.message().to_string() }
     }
 }
 
@@ -70,10 +67,7 @@ pub async fn connect(addr: &str) -> anyhow::Result<RendererClient<tonic::transpo
         .with_context(|| format!("invalid server address {addr:?}"))?
         .connect_timeout(Duration::from_secs(10))
         .tcp_nodelay(true);
-    let channel = endpoint
-        .connect()
-        .await
-        .with_context(|| format!("cannot connect to {addr}"))?;
+    let channel = endpoint.connect().await.with_context(|| format!("cannot connect to {addr}"))?;
     Ok(RendererClient::new(channel))
 }
 
@@ -87,11 +81,7 @@ pub async fn render_remote(
     mut on_frame: impl FnMut(&RenderStarted, &Frame),
 ) -> anyhow::Result<Option<Frame>> {
     let mut client = connect(addr).await?;
-    let mut stream = client
-        .render(req)
-        .await
-        .map_err(RemoteError::from)?
-        .into_inner();
+    let mut stream = client.render(req).await.map_err(RemoteError::from)?.into_inner();
     let mut assembler = FrameAssembler::new();
     let mut last = None;
     while let Some(update) = stream.message().await.map_err(RemoteError::from)? {

@@ -160,10 +160,23 @@ fn merge_settings(scene: Option<&proto::RenderSettings>, req: Option<&proto::Ren
     s
 }
 
+/// The wire enum of a core method.
+pub fn method_to_proto(m: Method) -> proto::Method {
+    match m {
+        Method::Uniform => proto::Method::Uniform,
+    }
+}
+
+/// The core method of a wire enum (`None` for METHOD_UNSPECIFIED).
+pub fn method_from_proto(m: proto::Method) -> Option<Method> {
+    match m {
+        proto::Method::Unspecified => None,
+        proto::Method::Uniform => Some(Method::Uniform),
+    }
+}
+
 fn validate_settings(s: &proto::RenderSettings, limits: &Limits) -> FieldResult<(Method, Halt, u32, u32)> {
-    let method = match enum_value::<proto::Method>("settings.method", s.method)? {
-        proto::Method::Unspecified | proto::Method::Uniform => Method::Uniform,
-    };
+    let method = method_from_proto(enum_value("settings.method", s.method)?).unwrap_or(Method::Uniform);
     if s.max_passes > limits.max_passes {
         return err("settings.max_passes", format!("must be <= {} (server limit), got {}", limits.max_passes, s.max_passes));
     }

@@ -1,6 +1,8 @@
 //! wedge: a gRPC render-and-denoise service. `render` is the tracer and filter core, `scene`
 //! the scene schema and its compiler, `job` the request-to-job mapping shared by the CLI and
 //! the server, `output` the image files, `server` the thin tonic layer.
+pub mod bench;
+pub mod cli;
 pub mod client;
 pub mod job;
 pub mod output;

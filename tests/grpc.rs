@@ -6,8 +6,8 @@ use std::time::Duration;
 use tonic::Code;
 use wedge::job::{self, Limits};
 use wedge::proto::{
-    light, render_request::SceneSource, Camera, ListScenesRequest, Method, OutputSelection,
-    PixelFormat, RenderRequest, Scene, Vec3,
+    light, render_request::SceneSource, Camera, ListScenesRequest, Method, OutputSelection, PixelFormat, RenderRequest,
+    Scene, Vec3,
 };
 use wedge::render::frame::{Frame, HaltReason};
 use wedge::render::progressive::{self, CancelToken};
@@ -75,20 +75,10 @@ async fn progressive_frames_refine() {
     assert_eq!(last.stats.pass, 3);
     assert!(last.stats.rays_traced > 0);
     assert!(last.color.iter().flatten().all(|v| v.is_finite()));
-    assert!(
-        last.color.iter().flatten().any(|&v| v > 0.0),
-        "a black image"
-    );
-    assert_eq!(
-        color_bits(&last),
-        color_bits(frames.last().expect("frames"))
-    );
+    assert!(last.color.iter().flatten().any(|&v| v > 0.0), "a black image");
+    assert_eq!(color_bits(&last), color_bits(frames.last().expect("frames")));
     assert_eq!(server.state.renders_started(), 1);
-    assert!(
-        wait_until(Duration::from_secs(2), || server.state.active_renders()
-            == 0)
-        .await
-    );
+    assert!(wait_until(Duration::from_secs(2), || server.state.active_renders() == 0).await);
     assert_eq!(server.state.renders_finished(), 1);
 }
 
@@ -102,39 +92,20 @@ async fn tiny_chunks_reassemble_bit_exact() {
         unfiltered: true,
         format: PixelFormat::F32 as i32,
     });
-    let tiled = TestServer::with_config(ServerConfig {
-        max_chunk_bytes: 1,
-        ..Default::default()
-    })
-    .await;
+    let tiled = TestServer::with_config(ServerConfig { max_chunk_bytes: 1, ..Default::default() }).await;
     let whole = TestServer::start().await;
 
-    let a = within(120, "tiled render", async {
-        collect(&mut tiled.client().await, req.clone()).await
-    })
-    .await
-    .expect("tiled render");
-    let b = within(120, "untiled render", async {
-        collect(&mut whole.client().await, req.clone()).await
-    })
-    .await
-    .expect("untiled render");
+    let a = within(120, "tiled render", async { collect(&mut tiled.client().await, req.clone()).await })
+        .await
+        .expect("tiled render");
+    let b = within(120, "untiled render", async { collect(&mut whole.client().await, req.clone()).await })
+        .await
+        .expect("untiled render");
 
     // One row per chunk versus the whole 48x36 frame in one chunk.
-    assert!(
-        a.chunks_per_frame.iter().all(|&n| n == 36),
-        "{:?}",
-        a.chunks_per_frame
-    );
-    assert!(
-        b.chunks_per_frame.iter().all(|&n| n == 1),
-        "{:?}",
-        b.chunks_per_frame
-    );
-    assert_eq!(
-        a.started.layers,
-        vec!["color", "spp", "filter_width", "unfiltered"]
-    );
+    assert!(a.chunks_per_frame.iter().all(|&n| n == 36), "{:?}", a.chunks_per_frame);
+    assert!(b.chunks_per_frame.iter().all(|&n| n == 1), "{:?}", b.chunks_per_frame);
+    assert_eq!(a.started.layers, vec!["color", "spp", "filter_width", "unfiltered"]);
     assert_eq!(a.frames.len(), 3);
     assert_eq!(b.frames.len(), 3);
 
@@ -144,51 +115,21 @@ async fn tiny_chunks_reassemble_bit_exact() {
         assert_eq!(spp_bits(fa), spp_bits(fb), "pass {}", fa.stats.pass);
     }
     let (fa, fb) = (&a.frames[2], &b.frames[2]);
-    assert_eq!(
-        color_bits(fa),
-        color_bits(&local),
-        "gRPC frame differs from a local render"
-    );
+    assert_eq!(color_bits(fa), color_bits(&local), "gRPC frame differs from a local render");
     assert_eq!(spp_bits(fa), spp_bits(&local));
     // The uniform method does not filter: widths are zero, unfiltered equals colour.
-    assert!(fa
-        .filter_width
-        .as_ref()
-        .expect("widths")
-        .iter()
-        .all(|&w| w == 0.0));
-    let unfiltered: Vec<u32> = fa
-        .unfiltered
-        .as_ref()
-        .expect("unfiltered")
-        .iter()
-        .flatten()
-        .map(|v| v.to_bits())
-        .collect();
+    assert!(fa.filter_width.as_ref().expect("widths").iter().all(|&w| w == 0.0));
+    let unfiltered: Vec<u32> =
+        fa.unfiltered.as_ref().expect("unfiltered").iter().flatten().map(|v| v.to_bits()).collect();
     assert_eq!(unfiltered, color_bits(fa));
     // Same stats but for the timings.
     for other in [fb, &local] {
         let (x, y) = (&fa.stats, &other.stats);
         assert_eq!(
-            (
-                x.pass,
-                x.rays_traced,
-                x.is_final,
-                x.halt_reason,
-                x.dropped_samples
-            ),
-            (
-                y.pass,
-                y.rays_traced,
-                y.is_final,
-                y.halt_reason,
-                y.dropped_samples
-            )
+            (x.pass, x.rays_traced, x.is_final, x.halt_reason, x.dropped_samples),
+            (y.pass, y.rays_traced, y.is_final, y.halt_reason, y.dropped_samples)
         );
-        assert!(
-            (x.mean_spp - y.mean_spp).abs() <= 1e-9 * y.mean_spp,
-            "{x:?} vs {y:?}"
-        );
+        assert!((x.mean_spp - y.mean_spp).abs() <= 1e-9 * y.mean_spp, "{x:?} vs {y:?}");
     }
 }
 
@@ -198,18 +139,10 @@ async fn f16_frames_match_f32_within_precision() {
     let mut client = server.client().await;
     let req32 = cornell(24, 18, 2, 5);
     let mut req16 = req32.clone();
-    req16.outputs = Some(OutputSelection {
-        color: true,
-        spp: true,
-        format: PixelFormat::F16 as i32,
-        ..Default::default()
-    });
-    let a = within(60, "f32 render", collect(&mut client, req32))
-        .await
-        .expect("f32");
-    let b = within(60, "f16 render", collect(&mut client, req16))
-        .await
-        .expect("f16");
+    req16.outputs =
+        Some(OutputSelection { color: true, spp: true, format: PixelFormat::F16 as i32, ..Default::default() });
+    let a = within(60, "f32 render", collect(&mut client, req32)).await.expect("f32");
+    let b = within(60, "f16 render", collect(&mut client, req16)).await.expect("f16");
     assert_eq!(b.started.format, PixelFormat::F16 as i32);
     let (fa, fb) = (&a.frames[1], &b.frames[1]);
     for (x, y) in fa.color.iter().flatten().zip(fb.color.iter().flatten()) {
@@ -224,9 +157,7 @@ async fn frame_every_skips_frames_but_sends_the_final_one() {
     let server = TestServer::start().await;
     let mut req = cornell(16, 12, 5, 3);
     req.frame_every = 2;
-    let got = within(60, "render", collect(&mut server.client().await, req))
-        .await
-        .expect("render");
+    let got = within(60, "render", collect(&mut server.client().await, req)).await.expect("render");
     let passes: Vec<u32> = got.frames.iter().map(|f| f.stats.pass).collect();
     assert_eq!(passes, vec![1, 3, 4]);
     assert!(got.frames[2].stats.is_final);
@@ -236,34 +167,20 @@ async fn frame_every_skips_frames_but_sends_the_final_one() {
 async fn cancelling_stops_the_render() {
     let server = TestServer::start().await;
     let mut client = server.client().await;
-    let mut stream = client
-        .render(long_render(1))
-        .await
-        .expect("render starts")
-        .into_inner();
+    let mut stream = client.render(long_render(1)).await.expect("render starts").into_inner();
     within(60, "first frame", next_frame_complete(&mut stream)).await;
     assert_eq!(server.state.active_renders(), 1);
 
     drop(stream);
-    let stopped = wait_until(Duration::from_secs(3), || {
-        server.state.active_renders() == 0
-    })
-    .await;
-    assert!(
-        stopped,
-        "render still running 3 s after the client cancelled"
-    );
+    let stopped = wait_until(Duration::from_secs(3), || server.state.active_renders() == 0).await;
+    assert!(stopped, "render still running 3 s after the client cancelled");
     assert_eq!(server.state.renders_cancelled(), 1);
     assert_eq!(server.state.renders_finished(), 0);
 
     // The slot is free again.
-    let got = within(
-        60,
-        "render after cancel",
-        collect(&mut client, cornell(8, 6, 1, 1)),
-    )
-    .await
-    .expect("render after cancel");
+    let got = within(60, "render after cancel", collect(&mut client, cornell(8, 6, 1, 1)))
+        .await
+        .expect("render after cancel");
     assert_eq!(got.frames.len(), 1);
 }
 
@@ -271,64 +188,31 @@ async fn cancelling_stops_the_render() {
 async fn disconnecting_stops_the_render() {
     let server = TestServer::start().await;
     let mut client = server.client().await;
-    let mut stream = client
-        .render(long_render(2))
-        .await
-        .expect("render starts")
-        .into_inner();
+    let mut stream = client.render(long_render(2)).await.expect("render starts").into_inner();
     within(60, "first frame", next_frame_complete(&mut stream)).await;
     // Stop reading, then drop the whole connection.
     drop(client);
     drop(stream);
-    let stopped = wait_until(Duration::from_secs(3), || {
-        server.state.active_renders() == 0
-    })
-    .await;
-    assert!(
-        stopped,
-        "render still running 3 s after the client went away"
-    );
+    let stopped = wait_until(Duration::from_secs(3), || server.state.active_renders() == 0).await;
+    assert!(stopped, "render still running 3 s after the client went away");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn busy_server_refuses_with_resource_exhausted() {
-    let server = TestServer::with_config(ServerConfig {
-        max_concurrent_renders: 1,
-        ..Default::default()
-    })
-    .await;
+    let server = TestServer::with_config(ServerConfig { max_concurrent_renders: 1, ..Default::default() }).await;
     let mut client = server.client().await;
-    let mut first = client
-        .render(long_render(3))
-        .await
-        .expect("first render starts")
-        .into_inner();
+    let mut first = client.render(long_render(3)).await.expect("first render starts").into_inner();
     within(60, "first frame", next_frame_complete(&mut first)).await;
 
-    let err = client
-        .render(cornell(8, 6, 1, 1))
-        .await
-        .expect_err("second render must be refused");
+    let err = client.render(cornell(8, 6, 1, 1)).await.expect_err("second render must be refused");
     assert_eq!(err.code(), Code::ResourceExhausted, "{err:?}");
-    assert!(
-        err.message().contains("max_concurrent_renders"),
-        "{}",
-        err.message()
-    );
+    assert!(err.message().contains("max_concurrent_renders"), "{}", err.message());
 
     drop(first);
-    assert!(
-        wait_until(Duration::from_secs(3), || server.state.active_renders()
-            == 0)
+    assert!(wait_until(Duration::from_secs(3), || server.state.active_renders() == 0).await);
+    let got = within(60, "render after the first ended", collect(&mut client, cornell(8, 6, 1, 1)))
         .await
-    );
-    let got = within(
-        60,
-        "render after the first ended",
-        collect(&mut client, cornell(8, 6, 1, 1)),
-    )
-    .await
-    .expect("a slot is free again");
+        .expect("a slot is free again");
     assert_eq!(got.frames.len(), 1);
 }
 
@@ -339,11 +223,7 @@ async fn expect_invalid(server: &TestServer, req: RenderRequest, needle: &str) {
         Err(e) => e,
     };
     assert_eq!(err.code(), Code::InvalidArgument, "{err:?}");
-    assert!(
-        err.message().contains(needle),
-        "message {:?} does not name {needle:?}",
-        err.message()
-    );
+    assert!(err.message().contains(needle), "message {:?} does not name {needle:?}", err.message());
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -353,16 +233,8 @@ async fn invalid_requests_name_the_field() {
     // A zero-size inline camera and no resolution override.
     let inline = Scene {
         camera: Some(Camera {
-            position: Some(Vec3 {
-                x: 0.0,
-                y: 1.0,
-                z: 3.0,
-            }),
-            look_at: Some(Vec3 {
-                x: 0.0,
-                y: 1.0,
-                z: 0.0,
-            }),
+            position: Some(Vec3 { x: 0.0, y: 1.0, z: 3.0 }),
+            look_at: Some(Vec3 { x: 0.0, y: 1.0, z: 0.0 }),
             vertical_fov_deg: 40.0,
             width: 0,
             height: 0,
@@ -396,11 +268,7 @@ async fn invalid_requests_name_the_field() {
 
     // An unknown pixel format.
     let mut req = cornell(8, 6, 1, 1);
-    req.outputs = Some(OutputSelection {
-        color: true,
-        format: 9,
-        ..Default::default()
-    });
+    req.outputs = Some(OutputSelection { color: true, format: 9, ..Default::default() });
     expect_invalid(&server, req, "outputs.format").await;
 
     assert_eq!(server.state.renders_started(), 0);
@@ -409,14 +277,7 @@ async fn invalid_requests_name_the_field() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn list_scenes_has_the_builtins() {
     let server = TestServer::start().await;
-    let scenes = server
-        .client()
-        .await
-        .list_scenes(ListScenesRequest {})
-        .await
-        .expect("ListScenes")
-        .into_inner()
-        .scenes;
+    let scenes = server.client().await.list_scenes(ListScenesRequest {}).await.expect("ListScenes").into_inner().scenes;
     let names: Vec<&str> = scenes.iter().map(|s| s.name.as_str()).collect();
     for want in ["cornell", "grids", "curved"] {
         assert!(names.contains(&want), "{want} missing from {names:?}");
@@ -431,16 +292,12 @@ async fn list_scenes_has_the_builtins() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn health_reports_serving() {
-    use tonic_health::pb::{
-        health_check_response::ServingStatus, health_client::HealthClient, HealthCheckRequest,
-    };
+    use tonic_health::pb::{health_check_response::ServingStatus, health_client::HealthClient, HealthCheckRequest};
     let server = TestServer::start().await;
     let mut health = HealthClient::new(server.channel().await);
     for service in ["wedge.v1.Renderer", ""] {
         let status = health
-            .check(HealthCheckRequest {
-                service: service.into(),
-            })
+            .check(HealthCheckRequest { service: service.into() })
             .await
             .expect("health check")
             .into_inner()
@@ -452,9 +309,8 @@ async fn health_reports_serving() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn reflection_lists_the_services() {
     use tonic_reflection::pb::v1::{
-        server_reflection_client::ServerReflectionClient,
-        server_reflection_request::MessageRequest, server_reflection_response::MessageResponse,
-        ServerReflectionRequest,
+        server_reflection_client::ServerReflectionClient, server_reflection_request::MessageRequest,
+        server_reflection_response::MessageResponse, ServerReflectionRequest,
     };
     let server = TestServer::start().await;
     let mut reflection = ServerReflectionClient::new(server.channel().await);
@@ -462,16 +318,9 @@ async fn reflection_lists_the_services() {
         host: String::new(),
         message_request: Some(MessageRequest::ListServices(String::new())),
     };
-    let mut responses = reflection
-        .server_reflection_info(tokio_stream::iter(vec![request]))
-        .await
-        .expect("reflection")
-        .into_inner();
-    let response = responses
-        .message()
-        .await
-        .expect("reflection stream")
-        .expect("a response");
+    let mut responses =
+        reflection.server_reflection_info(tokio_stream::iter(vec![request])).await.expect("reflection").into_inner();
+    let response = responses.message().await.expect("reflection stream").expect("a response");
     let Some(MessageResponse::ListServicesResponse(list)) = response.message_response else {
         panic!("unexpected reflection response {response:?}");
     };
@@ -482,49 +331,30 @@ async fn reflection_lists_the_services() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn shutdown_reports_not_serving_and_finishes_streams() {
-    use tonic_health::pb::{
-        health_check_response::ServingStatus, health_client::HealthClient, HealthCheckRequest,
-    };
+    use tonic_health::pb::{health_check_response::ServingStatus, health_client::HealthClient, HealthCheckRequest};
     let mut server = TestServer::start().await;
     let channel = server.channel().await;
     let mut health = HealthClient::new(channel.clone());
-    let mut watch = health
-        .watch(HealthCheckRequest {
-            service: "wedge.v1.Renderer".into(),
-        })
-        .await
-        .expect("watch")
-        .into_inner();
+    let mut watch =
+        health.watch(HealthCheckRequest { service: "wedge.v1.Renderer".into() }).await.expect("watch").into_inner();
     let first = watch.message().await.expect("watch").expect("status");
     assert_eq!(first.status, ServingStatus::Serving as i32);
 
     // A render in flight when the shutdown starts still runs to its final frame.
     let mut client = wedge::proto::renderer_client::RendererClient::new(channel);
-    let mut stream = client
-        .render(cornell(16, 12, 3, 4))
-        .await
-        .expect("render starts")
-        .into_inner();
-    let started = stream
-        .message()
-        .await
-        .expect("stream")
-        .expect("RenderStarted");
+    let mut stream = client.render(cornell(16, 12, 3, 4)).await.expect("render starts").into_inner();
+    let started = stream.message().await.expect("stream").expect("RenderStarted");
     server.begin_shutdown();
 
-    let next = within(10, "health update", watch.message())
-        .await
-        .expect("watch")
-        .expect("status");
+    let next = within(10, "health update", watch.message()).await.expect("watch").expect("status");
     assert_eq!(next.status, ServingStatus::NotServing as i32);
     drop(watch);
 
     let mut asm = wedge::server::FrameAssembler::new();
     asm.push(started).expect("RenderStarted");
     let mut last = None;
-    while let Some(update) = within(60, "render stream", stream.message())
-        .await
-        .expect("stream continues through the shutdown")
+    while let Some(update) =
+        within(60, "render stream", stream.message()).await.expect("stream continues through the shutdown")
     {
         if let Some(frame) = asm.push(update).expect("well-formed") {
             last = Some(frame);
@@ -532,10 +362,7 @@ async fn shutdown_reports_not_serving_and_finishes_streams() {
     }
     let last = last.expect("frames after the shutdown began");
     assert!(last.stats.is_final);
-    server
-        .stop(Duration::from_secs(10))
-        .await
-        .expect("server stops cleanly");
+    server.stop(Duration::from_secs(10)).await.expect("server stops cleanly");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -543,24 +370,15 @@ async fn render_remote_reports_status_errors() {
     let server = TestServer::start().await;
     let mut req = cornell(8, 6, 1, 1);
     req.scene_source = Some(SceneSource::Builtin("no-such-scene".into()));
-    let err = wedge::client::render_remote(&server.addr_str(), req, |_, _| {})
-        .await
-        .expect_err("unknown scene");
-    let remote = err
-        .downcast_ref::<wedge::client::RemoteError>()
-        .expect("a RemoteError");
+    let err = wedge::client::render_remote(&server.addr_str(), req, |_, _| {}).await.expect_err("unknown scene");
+    let remote = err.downcast_ref::<wedge::client::RemoteError>().expect("a RemoteError");
     assert_eq!(remote.code, Code::InvalidArgument);
     let text = err.to_string();
-    assert!(
-        text.contains("INVALID_ARGUMENT") && text.contains("builtin"),
-        "{text}"
-    );
+    assert!(text.contains("INVALID_ARGUMENT") && text.contains("builtin"), "{text}");
 
     // Nothing listens on the port of a stopped server.
     let addr = server.addr_str();
     server.stop(Duration::from_secs(10)).await.expect("stop");
-    let err = wedge::client::render_remote(&addr, cornell(8, 6, 1, 1), |_, _| {})
-        .await
-        .expect_err("no server");
+    let err = wedge::client::render_remote(&addr, cornell(8, 6, 1, 1), |_, _| {}).await.expect_err("no server");
     assert!(format!("{err:#}").contains(&addr), "{err:#}");
 }

@@ -46,6 +46,14 @@ impl Method {
             Method::Uniform => "uniform",
         }
     }
+    /// Whether frames of this method are filtered (then they carry unfiltered colour and
+    /// filter widths of their own).
+    pub fn filters(self) -> bool {
+        match self {
+            Method::Uniform => false,
+        }
+    }
+
     pub fn from_name(name: &str) -> Option<Method> {
         Self::ALL.iter().copied().find(|m| m.name() == name)
     }

@@ -294,17 +294,27 @@ fn mesh(path: &str, m: &proto::Mesh, budget: u64, limits: &SceneLimits, base_dir
 
 /// Loads a mesh file named by a scene file: relative to the scene's directory, and only inside
 /// the allowed root (so a scene cannot read arbitrary files).
-fn mesh_file(path: &str, file: &str, budget: u64, limits: &SceneLimits, base_dir: Option<&Path>) -> FieldResult<TriMesh> {
-    let (Some(root), Some(base)) = (&limits.mesh_root, base_dir) else {
-        return err(path, "mesh files are not allowed here (only in scene files under the mesh root)");
-    };
+pub(crate) fn load_mesh_file(
+    path: &str,
+    file: &str,
+    budget: u64,
+    root: &Path,
+    base: &Path,
+) -> FieldResult<meshfile::MeshData> {
     let full = base.join(file);
     let resolved = full.canonicalize().or_else(|e| err(path, format!("cannot open {}: {e}", full.display())))?;
     let root = root.canonicalize().or_else(|e| err(path, format!("mesh root {}: {e}", root.display())))?;
     if !resolved.starts_with(&root) {
         return err(path, format!("{} is outside the allowed root {}", resolved.display(), root.display()));
     }
-    let data = meshfile::load_mesh(&resolved, budget).or_else(|e| err(path, e.to_string()))?;
+    meshfile::load_mesh(&resolved, budget).or_else(|e| err(path, e.to_string()))
+}
+
+fn mesh_file(path: &str, file: &str, budget: u64, limits: &SceneLimits, base_dir: Option<&Path>) -> FieldResult<TriMesh> {
+    let (Some(root), Some(base)) = (&limits.mesh_root, base_dir) else {
+        return err(path, "mesh files are not allowed here (only in scene files under the mesh root)");
+    };
+    let data = load_mesh_file(path, file, budget, root, base)?;
     let v3 = |v: &[[f32; 3]]| v.iter().map(|&a| Vec3::from(a)).collect::<Vec<_>>();
     Ok(TriMesh {
         positions: v3(&data.positions),

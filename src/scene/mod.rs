@@ -8,10 +8,33 @@ pub mod builtin;
 mod compile;
 pub(crate) mod fields;
 pub mod json;
+pub mod locate;
 pub mod meshfile;
 mod shapes;
 
 pub use compile::MAX_EXPONENT;
+
+/// Replaces every mesh file path in a scene file's shapes with the file's contents as inline
+/// arrays, so that the scene can travel over gRPC (servers refuse file paths). Paths resolve
+/// as in `compile`: from `base_dir`, inside `root`.
+pub fn inline_mesh_files(scene: &mut proto::Scene, base_dir: &Path, root: &Path, max_triangles: u64) -> Result<(), FieldError> {
+    for (i, shape) in scene.shapes.iter_mut().enumerate() {
+        let Some(proto::shape::Geometry::Mesh(m)) = &mut shape.geometry else { continue };
+        if m.path.is_empty() {
+            continue;
+        }
+        let field = format!("scene.shapes[{i}].mesh.path");
+        let data = compile::load_mesh_file(&field, &m.path, max_triangles, root, base_dir)?;
+        *m = proto::Mesh {
+            positions: data.positions.iter().flatten().copied().collect(),
+            indices: data.indices.iter().flatten().copied().collect(),
+            normals: data.normals.map(|n| n.iter().flatten().copied().collect()).unwrap_or_default(),
+            uvs: data.uvs.map(|n| n.iter().flatten().copied().collect()).unwrap_or_default(),
+            path: String::new(),
+        };
+    }
+    Ok(())
+}
 
 /// A problem with one field of a request or scene, named by its path
 /// (e.g. `scene.lights[0].rect.edge_u: must be non-zero`).

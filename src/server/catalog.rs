@@ -14,23 +14,20 @@ pub fn builtin_catalog(limits: &Limits) -> ListScenesResponse {
     let scenes = scene::builtin::list()
         .into_iter()
         .map(|b| {
-            let (width, height, triangles, lights) = match scene::compile(
-                &b.scene,
-                &scene_limits,
-                limits.mesh_root.as_deref(),
-            ) {
-                Ok(compiled) => (
-                    compiled.width(),
-                    compiled.height(),
-                    u32::try_from(compiled.triangle_count()).unwrap_or(u32::MAX),
-                    compiled.lights.len(),
-                ),
-                Err(e) => {
-                    tracing::warn!(scene = b.name, error = %e, "built-in scene does not compile");
-                    let cam = b.scene.camera.unwrap_or_default();
-                    (cam.width, cam.height, 0, b.scene.lights.len())
-                }
-            };
+            let (width, height, triangles, lights) =
+                match scene::compile(&b.scene, &scene_limits, limits.mesh_root.as_deref()) {
+                    Ok(compiled) => (
+                        compiled.width(),
+                        compiled.height(),
+                        u32::try_from(compiled.triangle_count()).unwrap_or(u32::MAX),
+                        compiled.lights.len(),
+                    ),
+                    Err(e) => {
+                        tracing::warn!(scene = b.name, error = %e, "built-in scene does not compile");
+                        let cam = b.scene.camera.unwrap_or_default();
+                        (cam.width, cam.height, 0, b.scene.lights.len())
+                    }
+                };
             SceneInfo {
                 name: b.name.to_string(),
                 description: b.description,

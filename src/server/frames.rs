@@ -5,8 +5,7 @@
 //! channels), `spp` (1), `filter_width` (1), `unfiltered` (3). Pixels are row-major, channels
 //! interleaved, little-endian f32 or f16.
 use crate::proto::{
-    self, render_update, FrameChunk, FrameComplete, OutputSelection, PixelFormat, RenderStarted,
-    RenderUpdate,
+    self, render_update, FrameChunk, FrameComplete, OutputSelection, PixelFormat, RenderStarted, RenderUpdate,
 };
 use crate::render::frame::{Frame, FrameStats, HaltReason};
 use half::f16;
@@ -30,12 +29,7 @@ pub enum LayerKind {
 
 impl LayerKind {
     /// Wire order.
-    pub const ALL: [LayerKind; 4] = [
-        LayerKind::Color,
-        LayerKind::Spp,
-        LayerKind::FilterWidth,
-        LayerKind::Unfiltered,
-    ];
+    pub const ALL: [LayerKind; 4] = [LayerKind::Color, LayerKind::Spp, LayerKind::FilterWidth, LayerKind::Unfiltered];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -69,10 +63,7 @@ impl LayerKind {
 
 /// The layers `sel` streams, in wire order; colour alone when none is selected.
 pub fn selected_layers(sel: &OutputSelection) -> Vec<LayerKind> {
-    let layers: Vec<LayerKind> = LayerKind::ALL
-        .into_iter()
-        .filter(|k| k.selected(sel))
-        .collect();
+    let layers: Vec<LayerKind> = LayerKind::ALL.into_iter().filter(|k| k.selected(sel)).collect();
     if layers.is_empty() {
         vec![LayerKind::Color]
     } else {
@@ -82,10 +73,7 @@ pub fn selected_layers(sel: &OutputSelection) -> Vec<LayerKind> {
 
 /// The layer names `sel` streams, in wire order (as in `RenderStarted.layers`).
 pub fn layer_names(sel: &OutputSelection) -> Vec<String> {
-    selected_layers(sel)
-        .into_iter()
-        .map(|k| k.name().to_string())
-        .collect()
+    selected_layers(sel).into_iter().map(|k| k.name().to_string()).collect()
 }
 
 /// The selection's pixel format; unknown values are treated as f32 (the server rejects them
@@ -104,10 +92,7 @@ fn bytes_per_value(format: PixelFormat) -> usize {
 /// Rows per chunk so that a chunk's pixel bytes stay within `max_chunk_bytes` (at least one
 /// row, whatever the cap).
 pub fn rows_per_chunk(width: u32, sel: &OutputSelection, max_chunk_bytes: usize) -> u32 {
-    let per_pixel: usize = selected_layers(sel)
-        .iter()
-        .map(|k| k.channels() * bytes_per_value(pixel_format(sel)))
-        .sum();
+    let per_pixel: usize = selected_layers(sel).iter().map(|k| k.channels() * bytes_per_value(pixel_format(sel))).sum();
     let row_bytes = (width as usize).saturating_mul(per_pixel).max(1);
     let rows = (max_chunk_bytes / row_bytes).max(1);
     u32::try_from(rows).unwrap_or(u32::MAX)
@@ -124,10 +109,7 @@ pub fn check_frame(frame: &Frame) -> Result<(), String> {
     ];
     for (name, len) in lens {
         if let Some(len) = len.filter(|&len| len != n) {
-            return Err(format!(
-                "a {}x{} frame whose {name} layer has {len} pixels",
-                frame.width, frame.height
-            ));
+            return Err(format!("a {}x{} frame whose {name} layer has {len} pixels", frame.width, frame.height));
         }
     }
     Ok(())
@@ -146,9 +128,7 @@ pub fn encode_rows(frame: &Frame, sel: &OutputSelection, y0: u32, rows: u32) -> 
             let mut data = Vec::with_capacity((end - start) * kind.channels() * 4);
             match kind {
                 LayerKind::Color => put_rgb(&mut data, &frame.color[start..end], format),
-                LayerKind::Unfiltered => {
-                    put_rgb(&mut data, &frame.unfiltered_color()[start..end], format)
-                }
+                LayerKind::Unfiltered => put_rgb(&mut data, &frame.unfiltered_color()[start..end], format),
                 LayerKind::Spp => put_scalars(&mut data, &frame.spp[start..end], format),
                 LayerKind::FilterWidth => match &frame.filter_width {
                     Some(w) => put_scalars(&mut data, &w[start..end], format),
@@ -157,42 +137,23 @@ pub fn encode_rows(frame: &Frame, sel: &OutputSelection, y0: u32, rows: u32) -> 
                     }
                 },
             }
-            proto::Layer {
-                name: kind.name().to_string(),
-                channels: kind.channels() as u32,
-                data,
-            }
+            proto::Layer { name: kind.name().to_string(), channels: kind.channels() as u32, data }
         })
         .collect();
-    FrameChunk {
-        pass: frame.stats.pass,
-        x: 0,
-        y: y0,
-        width: frame.width,
-        height: rows,
-        layers,
-    }
+    FrameChunk { pass: frame.stats.pass, x: 0, y: y0, width: frame.width, height: rows, layers }
 }
 
 /// The row bands `(y0, rows)` a frame of `height` rows is cut into.
 pub fn chunk_bands(height: u32, rows_per_chunk: u32) -> impl Iterator<Item = (u32, u32)> {
     let step = rows_per_chunk.max(1);
-    (0..height)
-        .step_by(step as usize)
-        .map(move |y0| (y0, step.min(height - y0)))
+    (0..height).step_by(step as usize).map(move |y0| (y0, step.min(height - y0)))
 }
 
 /// Splits `frame` into row chunks of at most `max_chunk_bytes` pixel bytes each (at least one
 /// row per chunk). The frame must pass `check_frame`.
-pub fn encode_frame(
-    frame: &Frame,
-    sel: &OutputSelection,
-    max_chunk_bytes: usize,
-) -> Vec<FrameChunk> {
+pub fn encode_frame(frame: &Frame, sel: &OutputSelection, max_chunk_bytes: usize) -> Vec<FrameChunk> {
     let rows = rows_per_chunk(frame.width, sel, max_chunk_bytes);
-    chunk_bands(frame.height, rows)
-        .map(|(y0, n)| encode_rows(frame, sel, y0, n))
-        .collect()
+    chunk_bands(frame.height, rows).map(|(y0, n)| encode_rows(frame, sel, y0, n)).collect()
 }
 
 /// The `FrameComplete` message for a frame's stats.
@@ -250,14 +211,8 @@ fn put_scalars(out: &mut Vec<u8>, values: &[f32], format: PixelFormat) {
 
 fn decode_values(data: &[u8], format: PixelFormat) -> Vec<f32> {
     match format {
-        PixelFormat::F32 => data
-            .chunks_exact(4)
-            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-            .collect(),
-        PixelFormat::F16 => data
-            .chunks_exact(2)
-            .map(|b| f16::from_le_bytes([b[0], b[1]]).to_f32())
-            .collect(),
+        PixelFormat::F32 => data.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect(),
+        PixelFormat::F16 => data.chunks_exact(2).map(|b| f16::from_le_bytes([b[0], b[1]]).to_f32()).collect(),
     }
 }
 
@@ -339,10 +294,7 @@ impl FrameAssembler {
             return err("a second RenderStarted");
         }
         if started.width == 0 || started.height == 0 {
-            return err(format!(
-                "RenderStarted has an empty image ({}x{})",
-                started.width, started.height
-            ));
+            return err(format!("RenderStarted has an empty image ({}x{})", started.width, started.height));
         }
         if started.width as u64 * started.height as u64 > MAX_ASSEMBLED_PIXELS {
             return err(format!(
@@ -367,11 +319,7 @@ impl FrameAssembler {
         if layers.is_empty() {
             return err("RenderStarted lists no layers");
         }
-        self.header = Some(Header {
-            started,
-            layers,
-            format,
-        });
+        self.header = Some(Header { started, layers, format });
         Ok(())
     }
 
@@ -381,12 +329,7 @@ impl FrameAssembler {
             return err("FrameChunk before RenderStarted");
         };
         let (w, h) = (header.started.width as u64, header.started.height as u64);
-        let (x, y, cw, ch) = (
-            chunk.x as u64,
-            chunk.y as u64,
-            chunk.width as u64,
-            chunk.height as u64,
-        );
+        let (x, y, cw, ch) = (chunk.x as u64, chunk.y as u64, chunk.width as u64, chunk.height as u64);
         if cw == 0 || ch == 0 || x + cw > w || y + ch > h {
             return err(format!(
                 "chunk {}x{} at ({x}, {y}) of pass {} is empty or outside the {w}x{h} image",
@@ -394,18 +337,11 @@ impl FrameAssembler {
             ));
         }
         if chunk.layers.len() != header.layers.len()
-            || chunk
-                .layers
-                .iter()
-                .zip(&header.layers)
-                .any(|(l, k)| l.name != k.name())
+            || chunk.layers.iter().zip(&header.layers).any(|(l, k)| l.name != k.name())
         {
             let got: Vec<&str> = chunk.layers.iter().map(|l| l.name.as_str()).collect();
             let want: Vec<&str> = header.layers.iter().map(|k| k.name()).collect();
-            return err(format!(
-                "chunk at row {y} of pass {} has layers {got:?}, expected {want:?}",
-                chunk.pass
-            ));
+            return err(format!("chunk at row {y} of pass {} has layers {got:?}, expected {want:?}", chunk.pass));
         }
         let pixels = (cw * ch) as usize;
         let value_bytes = bytes_per_value(header.format);
@@ -434,19 +370,12 @@ impl FrameAssembler {
         let image_pixels = (w * h) as usize;
         let partial = match &mut self.partial {
             Some(p) if p.pass != chunk.pass => {
-                return err(format!(
-                    "chunk of pass {} while pass {} is incomplete",
-                    chunk.pass, p.pass
-                ))
+                return err(format!("chunk of pass {} while pass {} is incomplete", chunk.pass, p.pass))
             }
             Some(p) => p,
             None => self.partial.insert(Partial {
                 pass: chunk.pass,
-                values: header
-                    .layers
-                    .iter()
-                    .map(|k| vec![0.0; image_pixels * k.channels()])
-                    .collect(),
+                values: header.layers.iter().map(|k| vec![0.0; image_pixels * k.channels()]).collect(),
                 covered: vec![false; image_pixels],
                 covered_count: 0,
             }),
@@ -460,12 +389,7 @@ impl FrameAssembler {
             cover.fill(true);
         }
         partial.covered_count += pixels;
-        for ((layer, kind), dest) in chunk
-            .layers
-            .iter()
-            .zip(&header.layers)
-            .zip(&mut partial.values)
-        {
+        for ((layer, kind), dest) in chunk.layers.iter().zip(&header.layers).zip(&mut partial.values) {
             let c = kind.channels();
             let values = decode_values(&layer.data, header.format);
             let row_len = cw as usize * c;
@@ -486,20 +410,13 @@ impl FrameAssembler {
             return err(format!("FrameComplete for pass {} without chunks", fc.pass));
         };
         if partial.pass != fc.pass {
-            return err(format!(
-                "FrameComplete for pass {} while pass {} was being sent",
-                fc.pass, partial.pass
-            ));
+            return err(format!("FrameComplete for pass {} while pass {} was being sent", fc.pass, partial.pass));
         }
         let (w, h) = (header.started.width, header.started.height);
         let n = partial.covered.len();
         if partial.covered_count != n {
             let first_missing = partial.covered.iter().position(|&c| !c).unwrap_or(0);
-            let missing_rows = partial
-                .covered
-                .chunks_exact(w as usize)
-                .filter(|r| r.iter().any(|&c| !c))
-                .count();
+            let missing_rows = partial.covered.chunks_exact(w as usize).filter(|r| r.iter().any(|&c| !c)).count();
             return err(format!(
                 "frame of pass {} is missing {missing_rows} of {h} rows (first: row {})",
                 fc.pass,
@@ -569,13 +486,7 @@ mod tests {
     }
 
     fn all_layers(format: PixelFormat) -> OutputSelection {
-        OutputSelection {
-            color: true,
-            spp: true,
-            filter_width: true,
-            unfiltered: true,
-            format: format as i32,
-        }
+        OutputSelection { color: true, spp: true, filter_width: true, unfiltered: true, format: format as i32 }
     }
 
     fn started(frame: &Frame, sel: &OutputSelection) -> RenderStarted {
@@ -605,15 +516,8 @@ mod tests {
     fn layer_order_and_default() {
         assert_eq!(layer_names(&OutputSelection::default()), vec!["color"]);
         let sel = all_layers(PixelFormat::F32);
-        assert_eq!(
-            layer_names(&sel),
-            vec!["color", "spp", "filter_width", "unfiltered"]
-        );
-        let sel = OutputSelection {
-            unfiltered: true,
-            spp: true,
-            ..Default::default()
-        };
+        assert_eq!(layer_names(&sel), vec!["color", "spp", "filter_width", "unfiltered"]);
+        let sel = OutputSelection { unfiltered: true, spp: true, ..Default::default() };
         assert_eq!(layer_names(&sel), vec!["spp", "unfiltered"]);
     }
 
@@ -625,27 +529,12 @@ mod tests {
             let back = round_trip(&frame, &sel, max);
             assert_eq!((back.width, back.height), (16, 9));
             assert_eq!(bits(&back.color), bits(&frame.color));
-            assert_eq!(
-                bits(back.unfiltered.as_ref().unwrap()),
-                bits(frame.unfiltered.as_ref().unwrap())
-            );
+            assert_eq!(bits(back.unfiltered.as_ref().unwrap()), bits(frame.unfiltered.as_ref().unwrap()));
             let b: Vec<u32> = back.spp.iter().map(|x| x.to_bits()).collect();
             let f: Vec<u32> = frame.spp.iter().map(|x| x.to_bits()).collect();
             assert_eq!(b, f);
-            let b: Vec<u32> = back
-                .filter_width
-                .as_ref()
-                .unwrap()
-                .iter()
-                .map(|x| x.to_bits())
-                .collect();
-            let f: Vec<u32> = frame
-                .filter_width
-                .as_ref()
-                .unwrap()
-                .iter()
-                .map(|x| x.to_bits())
-                .collect();
+            let b: Vec<u32> = back.filter_width.as_ref().unwrap().iter().map(|x| x.to_bits()).collect();
+            let f: Vec<u32> = frame.filter_width.as_ref().unwrap().iter().map(|x| x.to_bits()).collect();
             assert_eq!(b, f);
             assert_eq!(back.stats, frame.stats);
         }
@@ -657,12 +546,7 @@ mod tests {
         let sel = all_layers(PixelFormat::F16);
         let back = round_trip(&frame, &sel, 64);
         let close = |a: f32, b: f32| (a - b).abs() <= b.abs() * 2f32.powi(-11) + 1e-7;
-        for (a, b) in back
-            .color
-            .iter()
-            .flatten()
-            .zip(frame.color.iter().flatten())
-        {
+        for (a, b) in back.color.iter().flatten().zip(frame.color.iter().flatten()) {
             assert!(close(*a, *b), "{a} vs {b}");
         }
         let (bu, fu) = (back.unfiltered.unwrap(), frame.unfiltered.unwrap());
@@ -672,12 +556,7 @@ mod tests {
         for (a, b) in back.spp.iter().zip(&frame.spp) {
             assert!(close(*a, *b), "{a} vs {b}");
         }
-        for (a, b) in back
-            .filter_width
-            .unwrap()
-            .iter()
-            .zip(frame.filter_width.unwrap().iter())
-        {
+        for (a, b) in back.filter_width.unwrap().iter().zip(frame.filter_width.unwrap().iter()) {
             assert!(close(*a, *b), "{a} vs {b}");
         }
     }
@@ -738,9 +617,7 @@ mod tests {
         let chunks = encode_frame(&frame, &sel, DEFAULT_MAX_CHUNK_BYTES);
         assert!(chunks.len() > 1);
         for c in chunks {
-            let msg = RenderUpdate {
-                kind: Some(render_update::Kind::Chunk(c)),
-            };
+            let msg = RenderUpdate { kind: Some(render_update::Kind::Chunk(c)) };
             assert!(msg.encoded_len() < 4 << 20);
         }
     }
@@ -824,22 +701,14 @@ mod tests {
     #[test]
     fn push_drives_a_whole_stream() {
         let frame = test_frame(9, 5);
-        let sel = OutputSelection {
-            spp: true,
-            format: PixelFormat::F32 as i32,
-            ..Default::default()
-        };
+        let sel = OutputSelection { spp: true, format: PixelFormat::F32 as i32, ..Default::default() };
         let mut asm = FrameAssembler::new();
         let mut updates = vec![render_update::Kind::Started(started(&frame, &sel))];
         for pass in 0..2 {
             let mut f = frame.clone();
             f.stats.pass = pass;
             f.stats.is_final = pass == 1;
-            updates.extend(
-                encode_frame(&f, &sel, 100)
-                    .into_iter()
-                    .map(render_update::Kind::Chunk),
-            );
+            updates.extend(encode_frame(&f, &sel, 100).into_iter().map(render_update::Kind::Chunk));
             updates.push(render_update::Kind::FrameComplete(frame_complete(&f.stats)));
         }
         let mut frames = Vec::new();

@@ -78,16 +78,10 @@ pub async fn serve_on(
     let signal = async move {
         shutdown.await;
         tracing::info!("shutting down: refusing new calls, finishing in-flight renders");
-        health
-            .set_not_serving::<RendererServer<RenderService>>()
-            .await;
-        health
-            .set_service_status("", ServingStatus::NotServing)
-            .await;
+        health.set_not_serving::<RendererServer<RenderService>>().await;
+        health.set_service_status("", ServingStatus::NotServing).await;
     };
-    let incoming = TcpIncoming::from(listener)
-        .with_nodelay(Some(true))
-        .with_keepalive(Some(Duration::from_secs(60)));
+    let incoming = TcpIncoming::from(listener).with_nodelay(Some(true)).with_keepalive(Some(Duration::from_secs(60)));
 
     tracing::info!(
         addr = %local,

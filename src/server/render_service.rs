@@ -5,8 +5,8 @@ use super::state::{RenderOutcome, ServerState};
 use super::ServerConfig;
 use crate::job::{self, Limits};
 use crate::proto::{
-    self, render_request::SceneSource, render_update, renderer_server::Renderer, ListScenesRequest,
-    ListScenesResponse, OutputSelection, PixelFormat, RenderRequest, RenderStarted, RenderUpdate,
+    self, render_request::SceneSource, render_update, renderer_server::Renderer, ListScenesRequest, ListScenesResponse,
+    OutputSelection, PixelFormat, RenderRequest, RenderStarted, RenderUpdate,
 };
 use crate::render::frame::Frame;
 use crate::render::progressive::{self, CancelToken, Method, RenderError, RenderJob};
@@ -70,13 +70,8 @@ fn update(kind: render_update::Kind) -> UpdateResult {
 impl Renderer for RenderService {
     type RenderStream = ReceiverStream<UpdateResult>;
 
-    async fn render(
-        &self,
-        request: Request<RenderRequest>,
-    ) -> Result<Response<Self::RenderStream>, Status> {
-        let peer = request
-            .remote_addr()
-            .map_or_else(|| "unknown".to_string(), |a| a.to_string());
+    async fn render(&self, request: Request<RenderRequest>) -> Result<Response<Self::RenderStream>, Status> {
+        let peer = request.remote_addr().map_or_else(|| "unknown".to_string(), |a| a.to_string());
         let req = request.into_inner();
         let label = scene_label(&req);
         let outputs = req.outputs.unwrap_or_default();
@@ -98,18 +93,17 @@ impl Renderer for RenderService {
         // Compiling a scene builds its BVH: keep it off the async workers.
         let limits = Arc::clone(&self.limits);
         let prep_label = label.clone();
-        let prepared = tokio::task::spawn_blocking(move || {
-            job::prepare(&req, &limits, limits.mesh_root.as_deref(), &prep_label)
-        })
-        .await
-        .map_err(|e| {
-            warn!(%peer, scene = %label, "scene preparation failed: {e}");
-            Status::internal("scene preparation failed")
-        })?
-        .map_err(|e| {
-            warn!(%peer, scene = %label, "rejected render: {e}");
-            Status::invalid_argument(e.to_string())
-        })?;
+        let prepared =
+            tokio::task::spawn_blocking(move || job::prepare(&req, &limits, limits.mesh_root.as_deref(), &prep_label))
+                .await
+                .map_err(|e| {
+                    warn!(%peer, scene = %label, "scene preparation failed: {e}");
+                    Status::internal("scene preparation failed")
+                })?
+                .map_err(|e| {
+                    warn!(%peer, scene = %label, "rejected render: {e}");
+                    Status::invalid_argument(e.to_string())
+                })?;
         let job = prepared.job;
 
         let started = RenderStarted {
@@ -163,19 +157,10 @@ impl Renderer for RenderService {
                 }
                 Err(TaskError::ClientGone) => {
                     active.set_outcome(RenderOutcome::Cancelled);
-                    info!(
-                        render = id,
-                        seconds = secs,
-                        "render cancelled by the client"
-                    );
+                    info!(render = id, seconds = secs, "render cancelled by the client");
                 }
                 Err(TaskError::Status(s)) => {
-                    warn!(
-                        render = id,
-                        seconds = secs,
-                        "render failed: {}",
-                        s.message()
-                    );
+                    warn!(render = id, seconds = secs, "render failed: {}", s.message());
                 }
             }
             // `active` and `_permit` drop here: the render no longer counts or holds memory.
@@ -211,10 +196,7 @@ impl Renderer for RenderService {
         Ok(Response::new(ReceiverStream::new(rx)))
     }
 
-    async fn list_scenes(
-        &self,
-        _request: Request<ListScenesRequest>,
-    ) -> Result<Response<ListScenesResponse>, Status> {
+    async fn list_scenes(&self, _request: Request<ListScenesRequest>) -> Result<Response<ListScenesResponse>, Status> {
         Ok(Response::new(ListScenesResponse::clone(&self.scenes)))
     }
 }
@@ -275,9 +257,7 @@ impl RenderTask {
             Err(RenderError::Cancelled) if self.cancel.is_cancelled() || self.tx.is_closed() => {
                 Err(TaskError::ClientGone)
             }
-            Err(e) => Err(TaskError::Status(Status::internal(format!(
-                "render stopped: {e}"
-            )))),
+            Err(e) => Err(TaskError::Status(Status::internal(format!("render stopped: {e}")))),
         }
     }
 
@@ -290,18 +270,13 @@ impl RenderTask {
                 frame.width, frame.height
             ))));
         }
-        frames::check_frame(frame)
-            .map_err(|e| TaskError::Status(Status::internal(format!("render produced {e}"))))?;
+        frames::check_frame(frame).map_err(|e| TaskError::Status(Status::internal(format!("render produced {e}"))))?;
         let rows = frames::rows_per_chunk(frame.width, &self.outputs, self.max_chunk_bytes);
         for (y0, n) in frames::chunk_bands(frame.height, rows) {
             let chunk = frames::encode_rows(frame, &self.outputs, y0, n);
-            self.tx
-                .blocking_send(update(render_update::Kind::Chunk(chunk)))
-                .map_err(|_| TaskError::ClientGone)?;
+            self.tx.blocking_send(update(render_update::Kind::Chunk(chunk))).map_err(|_| TaskError::ClientGone)?;
         }
         let complete = frame_complete(&frame.stats);
-        self.tx
-            .blocking_send(update(render_update::Kind::FrameComplete(complete)))
-            .map_err(|_| TaskError::ClientGone)
+        self.tx.blocking_send(update(render_update::Kind::FrameComplete(complete))).map_err(|_| TaskError::ClientGone)
     }
 }

@@ -54,11 +54,7 @@ impl ServerState {
     pub fn begin_render(self: &Arc<Self>) -> ActiveRender {
         let id = self.renders_started.fetch_add(1, Ordering::SeqCst) + 1;
         self.active_renders.fetch_add(1, Ordering::SeqCst);
-        ActiveRender {
-            state: Arc::clone(self),
-            id,
-            outcome: RenderOutcome::Failed,
-        }
+        ActiveRender { state: Arc::clone(self), id, outcome: RenderOutcome::Failed }
     }
 }
 

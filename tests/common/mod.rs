@@ -10,8 +10,8 @@ use tokio::task::JoinHandle;
 use tonic::transport::{Channel, Endpoint};
 use wedge::proto::renderer_client::RendererClient;
 use wedge::proto::{
-    render_request::SceneSource, render_update, Method, OutputSelection, RenderRequest,
-    RenderSettings, RenderStarted, RenderUpdate,
+    render_request::SceneSource, render_update, Method, OutputSelection, RenderRequest, RenderSettings, RenderStarted,
+    RenderUpdate,
 };
 use wedge::render::frame::Frame;
 use wedge::server::{FrameAssembler, ServerConfig, ServerState};
@@ -30,27 +30,15 @@ impl TestServer {
 
     pub async fn with_config(config: ServerConfig) -> TestServer {
         init_tracing();
-        let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
-            .await
-            .expect("bind 127.0.0.1:0");
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind 127.0.0.1:0");
         let addr = listener.local_addr().expect("local addr");
         let state = ServerState::new();
         let (tx, rx) = oneshot::channel::<()>();
         let shutdown = async move {
             let _ = rx.await;
         };
-        let task = tokio::spawn(wedge::server::serve_on(
-            listener,
-            config,
-            Arc::clone(&state),
-            shutdown,
-        ));
-        TestServer {
-            addr,
-            state,
-            shutdown: Some(tx),
-            task: Some(task),
-        }
+        let task = tokio::spawn(wedge::server::serve_on(listener, config, Arc::clone(&state), shutdown));
+        TestServer { addr, state, shutdown: Some(tx), task: Some(task) }
     }
 
     /// `host:port`, as `client::render_remote` takes it.
@@ -120,11 +108,7 @@ pub fn cornell(width: u32, height: u32, max_passes: u32, seed: u64) -> RenderReq
             ..Default::default()
         }),
         seed,
-        outputs: Some(OutputSelection {
-            color: true,
-            spp: true,
-            ..Default::default()
-        }),
+        outputs: Some(OutputSelection { color: true, spp: true, ..Default::default() }),
         ..Default::default()
     }
 }
@@ -147,10 +131,7 @@ pub struct Collected {
 }
 
 /// Reads a whole render stream with the raw client.
-pub async fn collect(
-    client: &mut RendererClient<Channel>,
-    req: RenderRequest,
-) -> Result<Collected, tonic::Status> {
+pub async fn collect(client: &mut RendererClient<Channel>, req: RenderRequest) -> Result<Collected, tonic::Status> {
     let mut stream = client.render(req).await?.into_inner();
     let mut asm = FrameAssembler::new();
     let mut frames = Vec::new();
@@ -168,21 +149,13 @@ pub async fn collect(
     }
     assert!(!asm.in_frame(), "stream ended inside a frame");
     let started = asm.started().expect("RenderStarted").clone();
-    Ok(Collected {
-        started,
-        frames,
-        chunks_per_frame,
-    })
+    Ok(Collected { started, frames, chunks_per_frame })
 }
 
 /// The next update whose kind is `FrameComplete` (skipping chunks); panics at end of stream.
 pub async fn next_frame_complete(stream: &mut tonic::Streaming<RenderUpdate>) {
     loop {
-        let update = stream
-            .message()
-            .await
-            .expect("stream ok")
-            .expect("stream not ended");
+        let update = stream.message().await.expect("stream ok").expect("stream not ended");
         if let Some(render_update::Kind::FrameComplete(_)) = update.kind {
             return;
         }

@@ -1,0 +1,53 @@
+//! Latency from a Render request to its first complete frame over gRPC, against a server on
+//! 127.0.0.1 in this process (or a given address).
+use crate::client::connect;
+use crate::proto::{self, render_update::Kind};
+use crate::server::{serve_on, ServerConfig, ServerState};
+use std::time::Instant;
+
+pub struct LatencyReport {
+    /// Seconds from sending the request to receiving the first FrameComplete, per run.
+    pub first_frame: Vec<f64>,
+    /// Seconds to open the connection.
+    pub connect: f64,
+}
+
+/// Runs `runs` renders of `req` on a fresh in-process server (when `addr` is None) and times
+/// each one's first frame. The first run warms up and is not counted.
+pub async fn measure(req: proto::RenderRequest, runs: usize, addr: Option<String>) -> anyhow::Result<LatencyReport> {
+    let (addr, shutdown) = match addr {
+        Some(a) => (a, None),
+        None => {
+            let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+            let local = listener.local_addr()?;
+            let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+            let server = tokio::spawn(serve_on(listener, ServerConfig::default(), ServerState::new(), async {
+                let _ = rx.await;
+            }));
+            (format!("http://{local}"), Some((tx, server)))
+        }
+    };
+    let t = Instant::now();
+    let mut client = connect(&addr).await?;
+    let connect_s = t.elapsed().as_secs_f64();
+    let mut times = Vec::new();
+    for run in 0..=runs {
+        let start = Instant::now();
+        let mut stream = client.render(req.clone()).await?.into_inner();
+        while let Some(u) = stream.message().await? {
+            if let Some(Kind::FrameComplete(_)) = u.kind {
+                break;
+            }
+        }
+        let dt = start.elapsed().as_secs_f64();
+        drop(stream);
+        if run > 0 {
+            times.push(dt);
+        }
+    }
+    if let Some((tx, server)) = shutdown {
+        let _ = tx.send(());
+        server.await??;
+    }
+    Ok(LatencyReport { first_frame: times, connect: connect_s })
+}

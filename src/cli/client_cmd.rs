@@ -1,0 +1,82 @@
+//! `wedge client`: the same render through a server, written to the same files.
+use super::request::{build_request, resolve_scene, FrameWriter};
+use super::ClientArgs;
+use crate::client::RemoteError;
+use crate::job::{method_from_proto, Limits};
+use crate::scene::FieldError;
+use crate::proto::{self, render_request::SceneSource};
+use crate::render::frame::{CameraInfo, RenderInfo};
+use anyhow::anyhow;
+
+pub fn run(args: ClientArgs) -> anyhow::Result<()> {
+    let r = &args.render;
+    let scene = resolve_scene(r)?;
+    let mut source = scene.source.clone();
+    // Servers refuse file paths: send mesh files' contents inline.
+    if let (SceneSource::Scene(s), Some(base), Some(root)) = (&mut source, &scene.base_dir, &scene.mesh_root) {
+        crate::scene::inline_mesh_files(s, base, root, Limits::default().max_triangles)
+            .map_err(|e| anyhow!("{}", scene.describe(&e)))?;
+    }
+    let req = build_request(r, source)?;
+    let info = request_info(&req, &scene.label);
+    let writer = FrameWriter::new(r);
+    let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+    let mut failure = None;
+    let result = runtime.block_on(crate::client::render_remote(&args.addr, req, |started, frame| {
+        if failure.is_some() {
+            return;
+        }
+        let mut frame = frame.clone();
+        let method = proto::Method::try_from(started.method).ok().and_then(method_from_proto);
+        // Unfiltered methods send colour in the unfiltered layer too; keep files identical to
+        // `wedge render`'s, which leave those layers out.
+        if method.is_some_and(|m| !m.filters()) {
+            frame.unfiltered = None;
+            frame.filter_width = None;
+        }
+        let info = RenderInfo { method: method.map(|m| m.name().to_string()).unwrap_or_default(), ..info.clone() };
+        if let Err(e) = writer.frame(&frame, &info) {
+            failure = Some(e);
+        }
+    }));
+    if let Err(e) = result {
+        // The server names the invalid field; for scene files, name the line too.
+        if let Some(r) = e.downcast_ref::<RemoteError>() {
+            if let (tonic::Code::InvalidArgument, Some((field, message))) = (r.code, r.message.split_once(": ")) {
+                let fe = FieldError { field: field.to_string(), message: message.to_string() };
+                return Err(anyhow!("server error INVALID_ARGUMENT: {}", scene.describe(&fe)));
+            }
+        }
+        return Err(e);
+    }
+    failure.map_or(Ok(()), Err)
+}
+
+/// Output metadata for a remote render: what the request and its scene say.
+fn request_info(req: &proto::RenderRequest, label: &str) -> RenderInfo {
+    let scene = match &req.scene_source {
+        Some(SceneSource::Scene(s)) => Some(s.clone()),
+        Some(SceneSource::Builtin(n)) => crate::scene::builtin::get(n),
+        None => None,
+    };
+    let bounces = req
+        .settings
+        .as_ref()
+        .and_then(|s| s.bounces)
+        .or_else(|| scene.as_ref().and_then(|s| s.settings.as_ref()).and_then(|s| s.bounces))
+        .unwrap_or(0);
+    let cam = scene.as_ref().and_then(|s| s.camera.clone()).unwrap_or_default();
+    let v = |v: &Option<proto::Vec3>, d: [f32; 3]| v.as_ref().map_or(d, |v| [v.x, v.y, v.z]);
+    RenderInfo {
+        scene: label.to_string(),
+        method: String::new(),
+        seed: req.seed,
+        bounces,
+        camera: CameraInfo {
+            position: v(&cam.position, [0.0; 3]),
+            look_at: v(&cam.look_at, [0.0; 3]),
+            up: v(&cam.up, [0.0, 1.0, 0.0]),
+            vertical_fov_deg: cam.vertical_fov_deg,
+        },
+    }
+}

@@ -1,0 +1,127 @@
+//! The command line: thin front ends over the library (`job`, `render`, `client`, `output`).
+use clap::{Args, Parser, Subcommand};
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+pub mod bench;
+mod client_cmd;
+mod render_cmd;
+mod request;
+mod serve_cmd;
+
+#[derive(Parser, Debug)]
+#[command(name = "wedge", version, about = "Progressive CPU path tracing with adaptive sampling and filtering, over gRPC")]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Run the gRPC server.
+    Serve(ServeArgs),
+    /// Render a scene in this process and write images.
+    Render(RenderArgs),
+    /// Render a scene on a server and write the same images.
+    Client(ClientArgs),
+    /// List the built-in scenes.
+    Scenes,
+    /// Benchmarks: ray throughput, first-frame latency.
+    Bench(bench::BenchArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct ServeArgs {
+    /// Address to listen on.
+    #[arg(long, default_value = "127.0.0.1:50051")]
+    pub addr: SocketAddr,
+    /// Renders allowed at once; more get RESOURCE_EXHAUSTED.
+    #[arg(long, default_value_t = 2)]
+    pub max_concurrent: usize,
+    /// Largest image (width x height) a request may ask for.
+    #[arg(long, default_value_t = 4096 * 4096)]
+    pub max_pixels: u64,
+    /// Most triangles a scene may have.
+    #[arg(long, default_value_t = 5_000_000)]
+    pub max_triangles: u64,
+    /// Most passes a render may run.
+    #[arg(long, default_value_t = 64)]
+    pub max_passes: u32,
+    /// Most mean samples per pixel a render may ask for.
+    #[arg(long, default_value_t = 65536.0)]
+    pub max_spp: f64,
+    /// Longest time budget (seconds) a render may ask for.
+    #[arg(long, default_value_t = 3600.0)]
+    pub max_time: f64,
+    /// Largest streamed chunk in bytes (clients' default receive limit is 4 MiB).
+    #[arg(long, default_value_t = 1 << 20)]
+    pub max_chunk_bytes: usize,
+}
+
+/// What to render and how: shared by `render` and `client`.
+#[derive(Args, Debug, Clone)]
+pub struct RenderArgs {
+    /// A scene file (canonical protobuf JSON) or the name of a built-in scene.
+    pub scene: String,
+    /// Directory for the output images.
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
+    #[arg(long)]
+    pub width: Option<u32>,
+    #[arg(long)]
+    pub height: Option<u32>,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Sampling and filtering method of each pass.
+    #[arg(long)]
+    pub method: Option<String>,
+    /// Stop at this mean samples per pixel.
+    #[arg(long)]
+    pub max_spp: Option<f32>,
+    /// Stop after this many passes.
+    #[arg(long)]
+    pub max_passes: Option<u32>,
+    /// Stop after this many seconds.
+    #[arg(long)]
+    pub time: Option<f32>,
+    /// Indirect bounces (0: direct light only).
+    #[arg(long)]
+    pub bounces: Option<u32>,
+    /// Samples per pixel of the first pass (uniform method).
+    #[arg(long)]
+    pub initial_spp: Option<u32>,
+    /// Also write every N-th pass (the final frame is always written).
+    #[arg(long)]
+    pub every: Option<u32>,
+    /// Leave timings out of the EXR header, so the same render gives the same bytes.
+    #[arg(long)]
+    pub reproducible: bool,
+    /// Directory that mesh files named by a scene file must lie in (default: the scene's
+    /// directory).
+    #[arg(long)]
+    pub mesh_root: Option<PathBuf>,
+}
+
+#[derive(Args, Debug)]
+pub struct ClientArgs {
+    /// Server address.
+    #[arg(long, default_value = "http://127.0.0.1:50051")]
+    pub addr: String,
+    #[command(flatten)]
+    pub render: RenderArgs,
+}
+
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Serve(a) => serve_cmd::run(a),
+        Command::Render(a) => render_cmd::run(a),
+        Command::Client(a) => client_cmd::run(a),
+        Command::Scenes => {
+            for s in crate::scene::builtin::list() {
+                println!("{:10} {}", s.name, s.description);
+            }
+            Ok(())
+        }
+        Command::Bench(a) => bench::run(a),
+    }
+}

@@ -1,0 +1,111 @@
+//! The `wedge` binary: `render` and `client` write identical files; bad input gets a clear
+//! message naming the file and line, and a non-zero exit, never a panic.
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use wedge::server::{serve_on, ServerConfig, ServerState};
+
+fn wedge(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_wedge")).args(args).env("RUST_LOG", "warn").output().expect("run wedge")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("wedge-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+const ARGS: &[&str] = &["--width", "40", "--height", "30", "--seed", "11", "--max-passes", "3", "--reproducible"];
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn render_and_client_write_byte_identical_files() {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = format!("http://{}", listener.local_addr().unwrap());
+    let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+    let server = tokio::spawn(serve_on(listener, ServerConfig::default(), ServerState::new(), async {
+        let _ = rx.await;
+    }));
+    let dir = temp_dir("identical");
+    let (local, remote) = (dir.join("local"), dir.join("remote"));
+    let (l, r) = (local.to_str().unwrap().to_string(), remote.to_str().unwrap().to_string());
+    let out = tokio::task::spawn_blocking(move || {
+        let mut a = vec!["render", "cornell", "--out", &l, "--every", "1"];
+        a.extend(ARGS);
+        let o1 = wedge(&a);
+        let mut b = vec!["client", "--addr", &addr, "cornell", "--out", &r, "--every", "1"];
+        b.extend(ARGS);
+        (o1, wedge(&b))
+    })
+    .await
+    .unwrap();
+    assert!(out.0.status.success(), "render: {}", stderr(&out.0));
+    assert!(out.1.status.success(), "client: {}", stderr(&out.1));
+    for name in ["final.exr", "pass_000.exr", "pass_002.exr", "final.png", "final_spp.png"] {
+        let a = std::fs::read(local.join(name)).unwrap();
+        let b = std::fs::read(remote.join(name)).unwrap();
+        assert!(a == b, "{name} differs between render and client");
+    }
+    // The header says what produced it.
+    let exr = wedge::output::read_exr(&local.join("final.exr")).unwrap();
+    assert_eq!(exr.info.method, "uniform");
+    assert_eq!(exr.info.seed, 11);
+    assert_eq!(exr.info.scene, "cornell");
+    assert_eq!(exr.frame.stats.mean_spp, 4.0);
+    assert!(exr.frame.stats.is_final);
+    let _ = tx.send(());
+    server.await.unwrap().unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+#[test]
+fn bad_scene_files_get_file_and_line() {
+    let dir = temp_dir("errors");
+    let syntax = write(&dir, "syntax.json", "{\n  \"camera\": {\n    \"widht\": 3\n  }\n}\n");
+    let o = wedge(&["render", &syntax, "--out", dir.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(e.contains(&format!("{syntax}:3:")) && e.contains("widht"), "{e}");
+
+    let semantic = write(
+        &dir,
+        "semantic.json",
+        r#"{
+  "camera": {"position": {"z": 5}, "lookAt": {}, "verticalFovDeg": 40, "width": 8, "height": 8},
+  "materials": [{"name": "m", "lambertian": {"albedo": {"constant": {"r": 0.5, "g": 0.5, "b": 0.5}}}}],
+  "shapes": [{"material": "m", "sphere": {"center": {}, "radius": 1}}],
+  "lights": [
+    {"point": {"position": {"y": 3}, "intensity": {"r": "NaN", "g": 1, "b": 1}}}
+  ]
+}"#,
+    );
+    let o = wedge(&["render", &semantic, "--out", dir.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(e.contains(&format!("{semantic}:6: scene.lights[0].point.intensity.r")), "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+
+    let o = wedge(&["render", "no-such-scene"]);
+    assert!(stderr(&o).contains("no such scene file") && stderr(&o).contains("cornell"), "{}", stderr(&o));
+    let o = wedge(&["render", "cornell", "--method", "magic", "--out", dir.to_str().unwrap()]);
+    assert!(stderr(&o).contains("--method magic: unknown method"), "{}", stderr(&o));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn scenes_lists_the_builtins() {
+    let o = wedge(&["scenes"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    for name in ["cornell", "grids", "curved"] {
+        assert!(out.contains(name), "{out}");
+    }
+}
