@@ -73,7 +73,7 @@ def grids():
     # Stacked grids of thin bars over a ground plane under a square Gaussian light: occluders at
     # several heights give shadows from sharp to very soft (Mehta et al. 2012, Fig. 6).
     shapes = [{"name": "ground", "material": "ground",
-               "quad": {"corner": v(-6, 0, -6), "edgeU": v(0, 0, 12), "edgeV": v(12, 0, 0)}},
+               "quad": {"corner": v(-12, 0, -12), "edgeU": v(0, 0, 24), "edgeV": v(24, 0, 0)}},
               {"name": "bar", "material": "bars", "box": {"min": v(-0.5, -0.5, -0.5), "max": v(0.5, 0.5, 0.5)}}]
     levels = [(0.35, 0.06, 0.45, 9), (1.1, 0.08, 0.7, 7), (2.2, 0.1, 1.0, 5)]
     for height, thick, spacing, count in levels:
@@ -90,12 +90,12 @@ def grids():
     shapes[1]["transform"] = first["transform"]
     return {
         "description": "stacked grids of thin bars over a plane, square Gaussian area light (AAF 2012 Fig. 6)",
-        "camera": {"position": v(0, 7.5, 8.5), "lookAt": v(0, 0.3, 0), "up": v(0, 1, 0),
-                   "verticalFovDeg": 45, "width": 320, "height": 240},
+        "camera": {"position": v(0, 6.0, 6.5), "lookAt": v(0, 0.2, 0.4), "up": v(0, 1, 0),
+                   "verticalFovDeg": 50, "width": 320, "height": 240},
         "materials": [lambert("ground", (0.8, 0.8, 0.8)), lambert("bars", (0.6, 0.45, 0.3))],
         "shapes": shapes,
         "lights": [{"rect": {"corner": v(-1, 6, -1), "edgeU": v(2, 0, 0), "edgeV": v(0, 0, 2),
-                             "radiance": rgb(12, 12, 12), "profile": "EMISSION_PROFILE_GAUSSIAN"}}],
+                             "radiance": rgb(40, 40, 40), "profile": "EMISSION_PROFILE_GAUSSIAN"}}],
         "settings": {"method": "METHOD_UNIFORM", "maxPasses": 8, "bounces": 0},
     }
 
@@ -106,7 +106,7 @@ def curved():
     def trough(radius, length, nu, nv):
         pos, idx = [], []
         for i in range(nu + 1):
-            a = math.pi * (1.15 + 0.7 * i / nu)  # an arc below the axis
+            a = math.pi * (1.1 + 0.8 * i / nu)  # an arc below the axis
             for j in range(nv + 1):
                 z = -length / 2 + length * j / nv
                 pos += [radius * math.cos(a), radius * math.sin(a) + radius, z]
@@ -132,18 +132,18 @@ def curved():
                 idx += [a, a + 1, b, a + 1, b + 1, b]
         return pos, nrm, idx
 
-    tp, ti = trough(4.0, 7.0, 40, 20)
+    tp, ti = trough(4.0, 14.0, 48, 24)
     hp, hn, hi = half_torus(1.6, 0.18, 48, 12)
     r4 = lambda xs: [round(x, 4) for x in xs]
     return {
         "description": "a curved occluder over a curved receiver under a square area light (AAF 2012 Fig. 8)",
-        "camera": {"position": v(0, 5.5, 7.5), "lookAt": v(0, 0.4, 0), "up": v(0, 1, 0),
-                   "verticalFovDeg": 42, "width": 320, "height": 240},
+        "camera": {"position": v(0, 4.2, 6.0), "lookAt": v(0, 0.3, 0), "up": v(0, 1, 0),
+                   "verticalFovDeg": 45, "width": 320, "height": 240},
         "materials": [lambert("receiver", (0.75, 0.75, 0.7)), lambert("occluder", (0.3, 0.5, 0.8))],
         "shapes": [{"name": "trough", "material": "receiver", "mesh": {"positions": r4(tp), "indices": ti}},
                    {"name": "arch", "material": "occluder",
                     "mesh": {"positions": r4(hp), "normals": r4(hn), "indices": hi},
-                    "transform": {"translate": v(0, 1.3, -0.2), "rotateAxis": v(1, 0, 0), "rotateDeg": -25}}],
+                    "transform": {"translate": v(0, 1.3, -0.2), "rotateAxis": v(1, 0, 0), "rotateDeg": -50}}],
         "lights": [{"rect": {"corner": v(-0.75, 5, -0.75), "edgeU": v(1.5, 0, 0), "edgeV": v(0, 0, 1.5),
                              "radiance": rgb(20, 20, 20)}}],
         "settings": {"method": "METHOD_UNIFORM", "maxPasses": 8, "bounces": 0},

@@ -74,8 +74,11 @@ pub fn prepare(
     if let Some(o) = &req.outputs {
         enum_value::<proto::PixelFormat>("outputs.format", o.format)?;
     }
-    let scene_limits =
-        SceneLimits { max_triangles: limits.max_triangles, max_pixels: limits.max_pixels, mesh_root: limits.mesh_root.clone() };
+    let scene_limits = SceneLimits {
+        max_triangles: limits.max_triangles,
+        max_pixels: limits.max_pixels,
+        mesh_root: limits.mesh_root.clone(),
+    };
     let compiled = compile(&scene, &scene_limits, base_dir)?;
     let cam = scene.camera.as_ref().map(camera_info).unwrap_or_default();
     Ok(PreparedJob {
@@ -134,20 +137,18 @@ fn check_vec3(path: &str, v: &proto::Vec3) -> FieldResult<proto::Vec3> {
     Ok(*v)
 }
 
-/// The scene's settings with every field the request sets (non-zero) taking precedence.
+/// The scene's settings with every field the request sets (non-zero) taking precedence. The
+/// halt conditions go as a group: a request that sets any of them replaces all of the scene's,
+/// so "render to 256 spp" is not cut short by the scene's default pass count.
 fn merge_settings(scene: Option<&proto::RenderSettings>, req: Option<&proto::RenderSettings>) -> proto::RenderSettings {
     let mut s = scene.cloned().unwrap_or_default();
     if let Some(r) = req {
         if r.method != 0 {
             s.method = r.method;
         }
-        if r.max_passes != 0 {
+        if r.max_passes != 0 || r.max_mean_spp != 0.0 || r.time_budget_seconds != 0.0 {
             s.max_passes = r.max_passes;
-        }
-        if r.max_mean_spp != 0.0 {
             s.max_mean_spp = r.max_mean_spp;
-        }
-        if r.time_budget_seconds != 0.0 {
             s.time_budget_seconds = r.time_budget_seconds;
         }
         if r.bounces.is_some() {
@@ -178,11 +179,17 @@ pub fn method_from_proto(m: proto::Method) -> Option<Method> {
 fn validate_settings(s: &proto::RenderSettings, limits: &Limits) -> FieldResult<(Method, Halt, u32, u32)> {
     let method = method_from_proto(enum_value("settings.method", s.method)?).unwrap_or(Method::Uniform);
     if s.max_passes > limits.max_passes {
-        return err("settings.max_passes", format!("must be <= {} (server limit), got {}", limits.max_passes, s.max_passes));
+        return err(
+            "settings.max_passes",
+            format!("must be <= {} (server limit), got {}", limits.max_passes, s.max_passes),
+        );
     }
     let spp = finite("settings.max_mean_spp", s.max_mean_spp)? as f64;
     if !(0.0..=limits.max_mean_spp).contains(&spp) {
-        return err("settings.max_mean_spp", format!("must be in [0, {}] (server limit), got {spp}", limits.max_mean_spp));
+        return err(
+            "settings.max_mean_spp",
+            format!("must be in [0, {}] (server limit), got {spp}", limits.max_mean_spp),
+        );
     }
     let time = finite("settings.time_budget_seconds", s.time_budget_seconds)? as f64;
     if !(0.0..=limits.max_time_budget_seconds).contains(&time) {
@@ -256,9 +263,15 @@ mod tests {
         req.settings = Some(proto::RenderSettings { max_passes: 0, ..Default::default() });
         let p = prepare(&req, &Limits::default(), None, "grids").unwrap();
         assert_eq!(p.job.halt.max_passes, 8); // the scene's own setting
+                                              // A request's halt conditions replace the scene's as a group; the server's pass limit
+                                              // still bounds them.
         req.settings = Some(proto::RenderSettings { time_budget_seconds: 2.0, ..Default::default() });
         let p = prepare(&req, &Limits::default(), None, "grids").unwrap();
         assert_eq!(p.job.halt.time_budget, Some(Duration::from_secs(2)));
+        assert_eq!(p.job.halt.max_passes, Limits::default().max_passes);
+        req.settings = Some(proto::RenderSettings { max_mean_spp: 256.0, ..Default::default() });
+        let p = prepare(&req, &Limits::default(), None, "grids").unwrap();
+        assert_eq!((p.job.halt.max_mean_spp, p.job.halt.max_passes), (256.0, 64));
     }
 
     #[test]

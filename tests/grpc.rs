@@ -184,6 +184,28 @@ async fn cancelling_stops_the_render() {
     assert_eq!(got.frames.len(), 1);
 }
 
+/// No frame is due for minutes, so the render can only notice the cancellation through its
+/// cancel token (checked per tile), not through a failed send.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn cancelling_between_frames_stops_the_render() {
+    let server = TestServer::start().await;
+    let mut client = server.client().await;
+    let mut req = long_render(5);
+    req.width = 96;
+    req.height = 72;
+    req.frame_every = 1_000_000;
+    let mut stream = client.render(req).await.expect("render starts").into_inner();
+    let started = stream.message().await.expect("stream").expect("RenderStarted");
+    assert!(matches!(started.kind, Some(wedge::proto::render_update::Kind::Started(_))));
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    assert_eq!(server.state.active_renders(), 1, "the render should still be running");
+
+    drop(stream);
+    let stopped = wait_until(Duration::from_secs(3), || server.state.active_renders() == 0).await;
+    assert!(stopped, "render still running 3 s after the client cancelled");
+    assert_eq!(server.state.renders_cancelled(), 1);
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn disconnecting_stops_the_render() {
     let server = TestServer::start().await;

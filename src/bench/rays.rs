@@ -2,6 +2,7 @@
 //! threads. The same rays can be written out so that bench/embree_compare.py traces them with
 //! Embree on the same machine.
 use crate::render::frame_basis::{cosine_hemisphere, to_world};
+use crate::render::geometry::BvhQuality;
 use crate::render::light::Light;
 use crate::render::material::Material;
 use crate::render::sampler::PixelSampler;
@@ -45,8 +46,12 @@ pub struct RaySet {
 pub fn make_rays(scene: &Scene, spp: u32) -> [RaySet; 3] {
     let cam = &scene.camera;
     let (w, h) = (scene.width(), scene.height());
-    let mut sets = [RayKind::Primary, RayKind::Shadow, RayKind::Bounce]
-        .map(|kind| RaySet { kind, origins: Vec::new(), dirs: Vec::new(), tmax: Vec::new() });
+    let mut sets = [RayKind::Primary, RayKind::Shadow, RayKind::Bounce].map(|kind| RaySet {
+        kind,
+        origins: Vec::new(),
+        dirs: Vec::new(),
+        tmax: Vec::new(),
+    });
     for y in 0..h {
         for x in 0..w {
             for i in 0..spp {
@@ -107,7 +112,7 @@ pub fn measure(scene: &Scene, set: &RaySet, threads: usize, repeats: usize) -> a
 
 /// A procedural terrain of about `triangles` triangles (a height field of summed sines) under a
 /// square light: a stand-in for large meshes that needs no asset files.
-pub fn terrain_scene(triangles: usize, width: u32, height: u32) -> Scene {
+pub fn terrain_scene(triangles: usize, width: u32, height: u32, quality: BvhQuality) -> Scene {
     let mut b = SceneBuilder::new(CameraDesc {
         position: Vec3::new(0.0, 6.0, 9.0),
         look_at: Vec3::new(0.0, 0.0, 0.0),
@@ -122,7 +127,9 @@ pub fn terrain_scene(triangles: usize, width: u32, height: u32) -> Scene {
     let size = 10.0f32;
     let p = |i: usize, j: usize| {
         let (x, z) = (i as f32 / n as f32 * size - size / 2.0, j as f32 / n as f32 * size - size / 2.0);
-        let y = 0.6 * (1.3 * x).sin() * (0.9 * z).cos() + 0.25 * (4.1 * x + 2.3 * z).sin() + 0.08 * (17.0 * x).sin() * (13.0 * z).cos();
+        let y = 0.6 * (1.3 * x).sin() * (0.9 * z).cos()
+            + 0.25 * (4.1 * x + 2.3 * z).sin()
+            + 0.08 * (17.0 * x).sin() * (13.0 * z).cos();
         Vec3::new(x, y, z)
     };
     for i in 0..n {
@@ -132,6 +139,7 @@ pub fn terrain_scene(triangles: usize, width: u32, height: u32) -> Scene {
             b.geometry.push([a, d, c], None, None, m, o);
         }
     }
+    b.bvh_quality = quality;
     b.add_rect_light(crate::render::light::RectLight::new(
         Vec3::new(-1.0, 5.0, -1.0),
         Vec3::new(2.0, 0.0, 0.0),
@@ -181,7 +189,7 @@ mod tests {
 
     #[test]
     fn terrain_has_the_requested_size_and_rays_hit_it() {
-        let s = terrain_scene(20_000, 16, 12);
+        let s = terrain_scene(20_000, 16, 12, BvhQuality::Medium);
         assert!((20_000..21_000).contains(&(s.triangle_count() - 2)), "{}", s.triangle_count());
         let sets = make_rays(&s, 1);
         assert_eq!(sets[0].origins.len(), 16 * 12);

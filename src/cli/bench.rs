@@ -1,6 +1,7 @@
 //! `wedge bench`: runs the benchmarks in src/bench and prints Markdown for BENCHMARKS.md.
 use crate::bench::{latency, machine_description, median, rays};
 use crate::proto;
+use crate::render::geometry::BvhQuality;
 use crate::scene::{builtin, compile, SceneLimits};
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
@@ -31,6 +32,9 @@ pub enum BenchKind {
         spp: u32,
         #[arg(long, default_value_t = 5)]
         repeats: usize,
+        /// BVH build preset for the terrain: fast, medium or slow.
+        #[arg(long, default_value = "medium")]
+        bvh: String,
         /// Write triangles and rays here for bench/embree_compare.py.
         #[arg(long)]
         dump: Option<PathBuf>,
@@ -54,7 +58,13 @@ pub enum BenchKind {
 pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     println!("Machine: {}\n", machine_description());
     match a.what {
-        BenchKind::Rays { scene, terrain_triangles, width, height, spp, repeats, dump } => {
+        BenchKind::Rays { scene, terrain_triangles, width, height, spp, repeats, bvh, dump } => {
+            let quality = match bvh.as_str() {
+                "fast" => BvhQuality::Fast,
+                "medium" => BvhQuality::Medium,
+                "slow" => BvhQuality::Slow,
+                other => anyhow::bail!("--bvh {other}: expected fast, medium or slow"),
+            };
             println!("| scene | triangles | rays | kind | 1 thread Mrays/s | 2 threads Mrays/s | hits |");
             println!("|---|---|---|---|---|---|---|");
             let mut scenes = Vec::new();
@@ -65,7 +75,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
                 }
                 scenes.push((name.clone(), compile(&s, &SceneLimits::default(), None)?));
             }
-            scenes.push(("terrain".to_string(), rays::terrain_scene(terrain_triangles, width, height)));
+            scenes.push(("terrain".to_string(), rays::terrain_scene(terrain_triangles, width, height, quality)));
             for (name, s) in &scenes {
                 let sets = rays::make_rays(s, spp);
                 let mut results = serde_json::Map::new();

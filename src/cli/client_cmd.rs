@@ -3,9 +3,9 @@ use super::request::{build_request, resolve_scene, FrameWriter};
 use super::ClientArgs;
 use crate::client::RemoteError;
 use crate::job::{method_from_proto, Limits};
-use crate::scene::FieldError;
 use crate::proto::{self, render_request::SceneSource};
 use crate::render::frame::{CameraInfo, RenderInfo};
+use crate::scene::FieldError;
 use anyhow::anyhow;
 
 pub fn run(args: ClientArgs) -> anyhow::Result<()> {
@@ -65,7 +65,7 @@ fn request_info(req: &proto::RenderRequest, label: &str) -> RenderInfo {
         .and_then(|s| s.bounces)
         .or_else(|| scene.as_ref().and_then(|s| s.settings.as_ref()).and_then(|s| s.bounces))
         .unwrap_or(0);
-    let cam = scene.as_ref().and_then(|s| s.camera.clone()).unwrap_or_default();
+    let cam = scene.as_ref().and_then(|s| s.camera).unwrap_or_default();
     let v = |v: &Option<proto::Vec3>, d: [f32; 3]| v.as_ref().map_or(d, |v| [v.x, v.y, v.z]);
     RenderInfo {
         scene: label.to_string(),

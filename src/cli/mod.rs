@@ -10,7 +10,11 @@ mod request;
 mod serve_cmd;
 
 #[derive(Parser, Debug)]
-#[command(name = "wedge", version, about = "Progressive CPU path tracing with adaptive sampling and filtering, over gRPC")]
+#[command(
+    name = "wedge",
+    version,
+    about = "Progressive CPU path tracing with adaptive sampling and filtering, over gRPC"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,

@@ -33,7 +33,12 @@ pub fn resolve_scene(args: &RenderArgs) -> anyhow::Result<ResolvedScene> {
             base_dir: Some(base),
         })
     } else if builtin::names().any(|n| n == args.scene) {
-        Ok(ResolvedScene { source: SceneSource::Builtin(args.scene.clone()), label: args.scene.clone(), base_dir: None, mesh_root: None })
+        Ok(ResolvedScene {
+            source: SceneSource::Builtin(args.scene.clone()),
+            label: args.scene.clone(),
+            base_dir: None,
+            mesh_root: None,
+        })
     } else {
         bail!(
             "{}: no such scene file, and no built-in scene of that name (built-in: {})",
@@ -104,12 +109,16 @@ pub struct FrameWriter {
 
 impl FrameWriter {
     pub fn new(args: &RenderArgs) -> Self {
-        FrameWriter { out: args.out.clone(), every: args.every, opts: OutputOptions { reproducible: args.reproducible } }
+        FrameWriter {
+            out: args.out.clone(),
+            every: args.every,
+            opts: OutputOptions { reproducible: args.reproducible },
+        }
     }
 
     pub fn frame(&self, frame: &Frame, info: &RenderInfo) -> anyhow::Result<()> {
         let pass = frame.stats.pass;
-        if self.every.is_some_and(|n| n > 0 && pass % n == 0) {
+        if self.every.is_some_and(|n| n > 0 && pass.is_multiple_of(n)) {
             write_frame_files(&self.out, &format!("pass_{pass:03}"), frame, info, &self.opts)?;
         }
         if frame.stats.is_final {

@@ -10,8 +10,8 @@ use std::io::Cursor;
 use std::path::Path;
 
 use ::exr::prelude::{
-    AnyChannel, AnyChannels, AttributeValue, Blocks, Compression, Encoding, FlatSamples, Image,
-    Layer, LayerAttributes, LineOrder, ReadChannels, ReadLayers, Text, Vec2, WritableImage,
+    AnyChannel, AnyChannels, AttributeValue, Blocks, Compression, Encoding, FlatSamples, Image, Layer, LayerAttributes,
+    LineOrder, ReadChannels, ReadLayers, Text, Vec2, WritableImage,
 };
 
 use super::exr_attributes::{attributes_as_text, from_attributes, to_attributes};
@@ -21,11 +21,8 @@ use crate::render::frame::{Frame, RenderInfo};
 
 /// ZIP over 16-scanline blocks, written in increasing line order: lossless and compact for
 /// float data, and with a fixed block order the parallel compressor's output is deterministic.
-const ENCODING: Encoding = Encoding {
-    compression: Compression::ZIP16,
-    blocks: Blocks::ScanLines,
-    line_order: LineOrder::Increasing,
-};
+const ENCODING: Encoding =
+    Encoding { compression: Compression::ZIP16, blocks: Blocks::ScanLines, line_order: LineOrder::Increasing };
 
 const RGB: [&str; 3] = ["R", "G", "B"];
 const UNFILTERED_RGB: [&str; 3] = ["unfiltered.R", "unfiltered.G", "unfiltered.B"];
@@ -44,43 +41,26 @@ pub struct ExrImage {
     pub attributes: BTreeMap<String, String>,
 }
 
-pub fn write_exr(
-    path: &Path,
-    frame: &Frame,
-    info: &RenderInfo,
-    opts: &OutputOptions,
-) -> Result<(), OutputError> {
-    let invalid = |reason: String| OutputError::InvalidInput {
-        path: path.to_path_buf(),
-        reason,
-    };
+pub fn write_exr(path: &Path, frame: &Frame, info: &RenderInfo, opts: &OutputOptions) -> Result<(), OutputError> {
+    let invalid = |reason: String| OutputError::InvalidInput { path: path.to_path_buf(), reason };
     check_frame(frame).map_err(invalid)?;
     let attributes = to_attributes(info, &frame.stats, !opts.reproducible).map_err(invalid)?;
     let layer_attributes = LayerAttributes {
         software_name: Some(Text::from(concat!("wedge ", env!("CARGO_PKG_VERSION")))),
-        other: attributes
-            .into_iter()
-            .map(|(name, value)| (Text::from(name), value))
-            .collect(),
+        other: attributes.into_iter().map(|(name, value)| (Text::from(name), value)).collect(),
         ..LayerAttributes::default()
     };
     let size = (frame.width as usize, frame.height as usize);
     let layer = Layer::new(size, layer_attributes, ENCODING, channels(frame));
 
     let mut bytes = Vec::new();
-    Image::from_layer(layer)
-        .write()
-        .to_buffered(Cursor::new(&mut bytes))
-        .map_err(|source| exr_error(path, source))?;
+    Image::from_layer(layer).write().to_buffered(Cursor::new(&mut bytes)).map_err(|source| exr_error(path, source))?;
     // Only fails if the exr crate's output is not the format it claims; report, don't panic.
     sort_header_attributes(&mut bytes).map_err(|e| {
         let reason = format!("encoder wrote a header we cannot parse: {e}");
         exr_error(path, ::exr::error::Error::Invalid(reason.into()))
     })?;
-    std::fs::write(path, bytes).map_err(|source| OutputError::Io {
-        path: path.to_path_buf(),
-        source,
-    })
+    std::fs::write(path, bytes).map_err(|source| OutputError::Io { path: path.to_path_buf(), source })
 }
 
 pub fn read_exr(path: &Path) -> Result<ExrImage, OutputError> {
@@ -93,10 +73,7 @@ pub fn read_exr(path: &Path) -> Result<ExrImage, OutputError> {
         .pedantic()
         .from_file(path)
         .map_err(|source| exr_error(path, source))?;
-    let not_wedge = |reason: String| OutputError::Format {
-        path: path.to_path_buf(),
-        reason,
-    };
+    let not_wedge = |reason: String| OutputError::Format { path: path.to_path_buf(), reason };
     let layer = image.layer_data;
     let (width, height) = (layer.size.width(), layer.size.height());
     let pixel_count = width * height;
@@ -113,15 +90,11 @@ pub fn read_exr(path: &Path) -> Result<ExrImage, OutputError> {
             other => other.values_as_f32().collect(),
         };
         if values.len() != pixel_count {
-            return Err(not_wedge(format!(
-                "channel {name} has {} samples",
-                values.len()
-            )));
+            return Err(not_wedge(format!("channel {name} has {} samples", values.len())));
         }
         Ok(Some(values))
     };
-    let required =
-        |name: &str| channel(name)?.ok_or_else(|| not_wedge(format!("no {name} channel")));
+    let required = |name: &str| channel(name)?.ok_or_else(|| not_wedge(format!("no {name} channel")));
     let rgb = |names: [&str; 3]| -> Result<Option<Vec<[f32; 3]>>, OutputError> {
         match names.map(channel) {
             [Ok(Some(r)), Ok(Some(g)), Ok(Some(b))] => Ok(Some(interleave(&r, &g, &b))),
@@ -167,17 +140,11 @@ fn check_frame(frame: &Frame) -> Result<(), String> {
         ("colour", Some(frame.color.len())),
         ("unfiltered colour", frame.unfiltered.as_ref().map(Vec::len)),
         ("spp map", Some(frame.spp.len())),
-        (
-            "filter-width map",
-            frame.filter_width.as_ref().map(Vec::len),
-        ),
+        ("filter-width map", frame.filter_width.as_ref().map(Vec::len)),
     ];
     for (what, len) in lengths {
         if let Some(len) = len.filter(|&len| len != n) {
-            return Err(format!(
-                "{what} has {len} pixels, expected {}x{}",
-                frame.width, frame.height
-            ));
+            return Err(format!("{what} has {len} pixels, expected {}x{}", frame.width, frame.height));
         }
     }
     Ok(())
@@ -188,16 +155,8 @@ fn channels(frame: &Frame) -> AnyChannels<FlatSamples> {
     let filter_width = filter_width.unwrap_or_else(|| vec![0.0; frame.pixel_count()]);
     let list = rgb_channels(RGB, &frame.color)
         .into_iter()
-        .chain(
-            frame
-                .unfiltered
-                .iter()
-                .flat_map(|u| rgb_channels(UNFILTERED_RGB, u)),
-        )
-        .chain([
-            channel(SPP, frame.spp.clone()),
-            channel(FILTER_WIDTH, filter_width),
-        ]);
+        .chain(frame.unfiltered.iter().flat_map(|u| rgb_channels(UNFILTERED_RGB, u)))
+        .chain([channel(SPP, frame.spp.clone()), channel(FILTER_WIDTH, filter_width)]);
     AnyChannels::sort(list.collect())
 }
 
@@ -217,23 +176,13 @@ fn channel(name: &str, values: Vec<f32>) -> AnyChannel<FlatSamples> {
 }
 
 fn interleave(r: &[f32], g: &[f32], b: &[f32]) -> Vec<[f32; 3]> {
-    r.iter()
-        .zip(g)
-        .zip(b)
-        .map(|((&r, &g), &b)| [r, g, b])
-        .collect()
+    r.iter().zip(g).zip(b).map(|((&r, &g), &b)| [r, g, b]).collect()
 }
 
 fn exr_error(path: &Path, source: ::exr::error::Error) -> OutputError {
     match source {
-        ::exr::error::Error::Io(source) => OutputError::Io {
-            path: path.to_path_buf(),
-            source,
-        },
-        source => OutputError::Exr {
-            path: path.to_path_buf(),
-            source,
-        },
+        ::exr::error::Error::Io(source) => OutputError::Io { path: path.to_path_buf(), source },
+        source => OutputError::Exr { path: path.to_path_buf(), source },
     }
 }
 
@@ -268,11 +217,7 @@ mod tests {
             k @ 0..=5 => special[k],
             k => (i * 7 + c) as f32 * 0.013 + k as f32,
         };
-        let rgb = |offset: usize| {
-            (0..n)
-                .map(|i| [0, 1, 2].map(|c| value(i + offset, c)))
-                .collect()
-        };
+        let rgb = |offset: usize| (0..n).map(|i| [0, 1, 2].map(|c| value(i + offset, c))).collect();
         Frame {
             width,
             height,
@@ -304,21 +249,13 @@ mod tests {
     fn assert_same_pixels(read: &Frame, written: &Frame) {
         assert_eq!((read.width, read.height), (written.width, written.height));
         assert_eq!(rgb_bits(&read.color), rgb_bits(&written.color));
-        assert_eq!(
-            read.unfiltered.as_deref().map(rgb_bits),
-            written.unfiltered.as_deref().map(rgb_bits)
-        );
+        assert_eq!(read.unfiltered.as_deref().map(rgb_bits), written.unfiltered.as_deref().map(rgb_bits));
         assert_eq!(bits(&read.spp), bits(&written.spp));
-        assert_eq!(
-            read.filter_width.as_deref().map(bits),
-            written.filter_width.as_deref().map(bits)
-        );
+        assert_eq!(read.filter_width.as_deref().map(bits), written.filter_width.as_deref().map(bits));
     }
 
     const REPRODUCIBLE: OutputOptions = OutputOptions { reproducible: true };
-    const TIMED: OutputOptions = OutputOptions {
-        reproducible: false,
-    };
+    const TIMED: OutputOptions = OutputOptions { reproducible: false };
 
     #[test]
     fn round_trip_is_bit_exact() {
@@ -343,11 +280,7 @@ mod tests {
         let read = read_exr(&path).unwrap();
         assert_same_pixels(&read.frame, &written);
         assert!(read.frame.unfiltered.is_none() && read.frame.filter_width.is_none());
-        let expected_stats = FrameStats {
-            elapsed_seconds: 0.0,
-            method_seconds: 0.0,
-            ..written.stats
-        };
+        let expected_stats = FrameStats { elapsed_seconds: 0.0, method_seconds: 0.0, ..written.stats };
         assert_eq!(read.frame.stats, expected_stats);
         assert_eq!(read.info, info());
     }
@@ -374,29 +307,17 @@ mod tests {
             write_exr(&path, &frame(3, 5, filtered), &info(), &REPRODUCIBLE).unwrap();
             let image = ::exr::prelude::read_first_flat_layer_from_file(&path).unwrap();
             let layer = &image.layer_data;
-            let names: Vec<String> = layer
-                .channel_data
-                .list
-                .iter()
-                .map(|c| c.name.to_string())
-                .collect();
+            let names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
             let mut expected = vec!["B", "G", "R", "filter_width.Y", "spp.Y"];
             if filtered {
                 expected.extend(["unfiltered.B", "unfiltered.G", "unfiltered.R"]);
             }
             assert_eq!(names, expected);
-            let all_f32 = layer
-                .channel_data
-                .list
-                .iter()
-                .all(|c| matches!(c.sample_data, FlatSamples::F32(_)));
+            let all_f32 = layer.channel_data.list.iter().all(|c| matches!(c.sample_data, FlatSamples::F32(_)));
             assert!(all_f32);
             assert_eq!(layer.encoding.compression, Compression::ZIP16);
             let software = layer.attributes.software_name.as_ref().unwrap();
-            assert_eq!(
-                software.to_string(),
-                format!("wedge {}", env!("CARGO_PKG_VERSION"))
-            );
+            assert_eq!(software.to_string(), format!("wedge {}", env!("CARGO_PKG_VERSION")));
         }
     }
 
@@ -411,23 +332,14 @@ mod tests {
         let frame_a = frame(40, 33, true);
         // Both option values are deterministic for the same frame.
         for opts in [REPRODUCIBLE, TIMED] {
-            assert_eq!(
-                write("a.exr", &frame_a, &opts),
-                write("b.exr", &frame_a, &opts)
-            );
+            assert_eq!(write("a.exr", &frame_a, &opts), write("b.exr", &frame_a, &opts));
         }
         // Reproducible files do not depend on how long the render took.
         let mut frame_b = frame_a.clone();
         frame_b.stats.elapsed_seconds = 99.0;
         frame_b.stats.method_seconds = 12.0;
-        assert_eq!(
-            write("a.exr", &frame_a, &REPRODUCIBLE),
-            write("b.exr", &frame_b, &REPRODUCIBLE)
-        );
-        assert_ne!(
-            write("a.exr", &frame_a, &TIMED),
-            write("b.exr", &frame_b, &TIMED)
-        );
+        assert_eq!(write("a.exr", &frame_a, &REPRODUCIBLE), write("b.exr", &frame_b, &REPRODUCIBLE));
+        assert_ne!(write("a.exr", &frame_a, &TIMED), write("b.exr", &frame_b, &TIMED));
     }
 
     #[test]
@@ -448,11 +360,7 @@ mod tests {
         without_times.remove(SECONDS);
         without_times.remove(METHOD_SECONDS);
         assert_eq!(without_times, reproducible.attributes);
-        let stats_without_times = FrameStats {
-            elapsed_seconds: 0.0,
-            method_seconds: 0.0,
-            ..timed.frame.stats
-        };
+        let stats_without_times = FrameStats { elapsed_seconds: 0.0, method_seconds: 0.0, ..timed.frame.stats };
         assert_eq!(stats_without_times, reproducible.frame.stats);
     }
 
@@ -462,11 +370,7 @@ mod tests {
         let path = dir.path().join("f.exr");
         write_exr(&path, &frame(3, 5, true), &info(), &TIMED).unwrap();
         let bytes = std::fs::read(&path).unwrap();
-        let names: Vec<&[u8]> = header_attributes(&bytes)
-            .unwrap()
-            .iter()
-            .map(|a| a.name(&bytes))
-            .collect();
+        let names: Vec<&[u8]> = header_attributes(&bytes).unwrap().iter().map(|a| a.name(&bytes)).collect();
         assert!(names.windows(2).all(|w| w[0] < w[1]), "{names:?}");
         assert!(names.contains(&&b"wedge.seed"[..]) && names.contains(&&b"software"[..]));
     }

@@ -68,31 +68,19 @@ pub(super) fn to_attributes(
 }
 
 /// Parses what `to_attributes` wrote. Missing seconds read as 0 (a reproducible file).
-pub(super) fn from_attributes(
-    attributes: &HashMap<Text, AttributeValue>,
-) -> Result<(RenderInfo, FrameStats), String> {
-    let get = |name: &str| {
-        attributes
-            .get(name.as_bytes())
-            .ok_or_else(|| format!("missing attribute {name}"))
-    };
-    let wrong_type = |name: &str, value: &AttributeValue| {
-        format!("attribute {name} has unexpected type or value {value:?}")
-    };
+pub(super) fn from_attributes(attributes: &HashMap<Text, AttributeValue>) -> Result<(RenderInfo, FrameStats), String> {
+    let get = |name: &str| attributes.get(name.as_bytes()).ok_or_else(|| format!("missing attribute {name}"));
+    let wrong_type =
+        |name: &str, value: &AttributeValue| format!("attribute {name} has unexpected type or value {value:?}");
     let string = |name: &str| match get(name)? {
-        AttributeValue::Text(t) => String::from_utf8(t.bytes().to_vec())
-            .map_err(|_| format!("attribute {name} is not UTF-8")),
+        AttributeValue::Text(t) => {
+            String::from_utf8(t.bytes().to_vec()).map_err(|_| format!("attribute {name} is not UTF-8"))
+        }
         other => Err(wrong_type(name, other)),
     };
-    let parsed_u64 = |name: &str| {
-        string(name)?
-            .parse::<u64>()
-            .map_err(|e| format!("attribute {name}: {e}"))
-    };
+    let parsed_u64 = |name: &str| string(name)?.parse::<u64>().map_err(|e| format!("attribute {name}: {e}"));
     let unsigned = |name: &str| match get(name)? {
-        AttributeValue::I32(v) => {
-            u32::try_from(*v).map_err(|_| format!("attribute {name} = {v} is negative"))
-        }
+        AttributeValue::I32(v) => u32::try_from(*v).map_err(|_| format!("attribute {name} = {v} is negative")),
         other => Err(wrong_type(name, other)),
     };
     let double = |name: &str| match get(name)? {
@@ -145,9 +133,7 @@ pub(super) fn from_attributes(
 }
 
 /// All `wedge.*` attributes as display text, for tests and tools that print headers.
-pub(super) fn attributes_as_text(
-    attributes: &HashMap<Text, AttributeValue>,
-) -> BTreeMap<String, String> {
+pub(super) fn attributes_as_text(attributes: &HashMap<Text, AttributeValue>) -> BTreeMap<String, String> {
     attributes
         .iter()
         .map(|(name, value)| (String::from_utf8_lossy(name.bytes()).into_owned(), value))
@@ -186,14 +172,9 @@ fn halt_reason_name(reason: HaltReason) -> &'static str {
 }
 
 fn parse_halt_reason(name: &str) -> Option<HaltReason> {
-    [
-        HaltReason::None,
-        HaltReason::MaxPasses,
-        HaltReason::MaxSpp,
-        HaltReason::TimeBudget,
-    ]
-    .into_iter()
-    .find(|&reason| halt_reason_name(reason) == name)
+    [HaltReason::None, HaltReason::MaxPasses, HaltReason::MaxSpp, HaltReason::TimeBudget]
+        .into_iter()
+        .find(|&reason| halt_reason_name(reason) == name)
 }
 
 #[cfg(test)]
@@ -201,10 +182,7 @@ mod tests {
     use super::*;
 
     fn as_map(attributes: Vec<(&'static str, AttributeValue)>) -> HashMap<Text, AttributeValue> {
-        attributes
-            .into_iter()
-            .map(|(name, value)| (Text::from(name), value))
-            .collect()
+        attributes.into_iter().map(|(name, value)| (Text::from(name), value)).collect()
     }
 
     fn sample() -> (RenderInfo, FrameStats) {
@@ -248,22 +226,13 @@ mod tests {
         assert!(!map.contains_key(METHOD_SECONDS.as_bytes()));
         let (read_info, read_stats) = from_attributes(&map).unwrap();
         assert_eq!(read_info, info);
-        let expected = FrameStats {
-            elapsed_seconds: 0.0,
-            method_seconds: 0.0,
-            ..stats
-        };
+        let expected = FrameStats { elapsed_seconds: 0.0, method_seconds: 0.0, ..stats };
         assert_eq!(read_stats, expected);
     }
 
     #[test]
     fn every_halt_reason_round_trips() {
-        for reason in [
-            HaltReason::None,
-            HaltReason::MaxPasses,
-            HaltReason::MaxSpp,
-            HaltReason::TimeBudget,
-        ] {
+        for reason in [HaltReason::None, HaltReason::MaxPasses, HaltReason::MaxSpp, HaltReason::TimeBudget] {
             assert_eq!(parse_halt_reason(halt_reason_name(reason)), Some(reason));
         }
         assert_eq!(parse_halt_reason("bogus"), None);

@@ -19,11 +19,7 @@ pub(super) fn sort_header_attributes(file: &mut [u8]) -> Result<(), String> {
     };
     let mut sorted = attributes.clone();
     sorted.sort_by(|a, b| a.name(file).cmp(b.name(file)));
-    let bytes: Vec<u8> = sorted
-        .iter()
-        .flat_map(|a| &file[a.start..a.end])
-        .copied()
-        .collect();
+    let bytes: Vec<u8> = sorted.iter().flat_map(|a| &file[a.start..a.end]).copied().collect();
     file[start..end].copy_from_slice(&bytes);
     Ok(())
 }
@@ -53,10 +49,7 @@ pub(super) fn header_attributes(file: &[u8]) -> Result<Vec<AttributeSpan>, Strin
         return Err("multi-part file".into());
     }
     let null_terminated_end = |from: usize| {
-        file.get(from..)
-            .and_then(|rest| rest.iter().position(|&b| b == 0))
-            .map(|n| from + n)
-            .ok_or_else(truncated)
+        file.get(from..).and_then(|rest| rest.iter().position(|&b| b == 0)).map(|n| from + n).ok_or_else(truncated)
     };
     let mut spans = Vec::new();
     let mut position = 8;
@@ -72,11 +65,7 @@ pub(super) fn header_attributes(file: &[u8]) -> Result<Vec<AttributeSpan>, Strin
         if end > file.len() {
             return Err(truncated());
         }
-        spans.push(AttributeSpan {
-            start: position,
-            name_end,
-            end,
-        });
+        spans.push(AttributeSpan { start: position, name_end, end });
         position = end;
     }
     Ok(spans)

@@ -52,11 +52,7 @@ pub(super) fn false_color_image(values: &[f32], width: u32, height: u32, title: 
 
 /// The top of the scale: the largest finite value, or 0 if there is none above 0.
 fn scale_max(values: &[f32]) -> f32 {
-    values
-        .iter()
-        .copied()
-        .filter(|v| v.is_finite())
-        .fold(0.0, f32::max)
+    values.iter().copied().filter(|v| v.is_finite()).fold(0.0, f32::max)
 }
 
 /// Colour of `value` on the scale [0, max]; values below 0 get the lowest colour, and so does
@@ -65,11 +61,7 @@ fn map_color(value: f32, max: f32) -> Rgb<u8> {
     if !value.is_finite() {
         return NON_FINITE;
     }
-    let t = if max > 0.0 {
-        f64::from(value) / f64::from(max)
-    } else {
-        0.0
-    };
+    let t = if max > 0.0 { f64::from(value) / f64::from(max) } else { 0.0 };
     colormap(t)
 }
 
@@ -90,10 +82,7 @@ mod tests {
     /// The map's own pixels, without the legend or side padding.
     fn map_pixels(image: &RgbImage, width: u32, height: u32) -> Vec<Rgb<u8>> {
         let left = (image.width() - width) / 2;
-        (0..height)
-            .flat_map(|y| (0..width).map(move |x| (x, y)))
-            .map(|(x, y)| *image.get_pixel(left + x, y))
-            .collect()
+        (0..height).flat_map(|y| (0..width).map(move |x| (x, y))).map(|(x, y)| *image.get_pixel(left + x, y)).collect()
     }
 
     #[test]
@@ -114,24 +103,15 @@ mod tests {
         let pixels = map_pixels(&image, width, 1);
         let table: Vec<Rgb<u8>> = (0..1024).map(|i| colormap(i as f64 / 1023.0)).collect();
         let nearest = |p: Rgb<u8>| {
-            let distance = |q: &Rgb<u8>| {
-                (0..3)
-                    .map(|c| (i32::from(p[c]) - i32::from(q[c])).pow(2))
-                    .sum::<i32>()
-            };
-            (0..table.len())
-                .min_by_key(|&i| distance(&table[i]))
-                .unwrap()
+            let distance = |q: &Rgb<u8>| (0..3).map(|c| (i32::from(p[c]) - i32::from(q[c])).pow(2)).sum::<i32>();
+            (0..table.len()).min_by_key(|&i| distance(&table[i])).unwrap()
         };
         let mut previous = 0;
         for (&value, &pixel) in ramp.iter().zip(&pixels) {
             let expected = colorous::VIRIDIS.eval_continuous(f64::from(value / max));
             assert_eq!(pixel.0, [expected.r, expected.g, expected.b], "at {value}");
             let index = nearest(pixel);
-            assert!(
-                index >= previous,
-                "colour for {value} goes back along the colormap"
-            );
+            assert!(index >= previous, "colour for {value} goes back along the colormap");
             previous = index;
         }
         assert_eq!(pixels[0], lowest());

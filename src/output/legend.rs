@@ -38,8 +38,7 @@ impl Legend {
     }
 
     pub(super) fn height(&self) -> u32 {
-        self.scale
-            * (MARGIN + BAR_HEIGHT + TICK_HEIGHT + ROW_GAP + GLYPH + ROW_GAP + GLYPH + MARGIN)
+        self.scale * (MARGIN + BAR_HEIGHT + TICK_HEIGHT + ROW_GAP + GLYPH + ROW_GAP + GLYPH + MARGIN)
     }
 
     /// The narrowest canvas that holds the labels apart and the title.
@@ -89,11 +88,7 @@ impl Legend {
     fn draw_text(&self, canvas: &mut RgbImage, x: u32, y: u32, text: &str) {
         let s = self.scale;
         for (i, c) in text.chars().enumerate() {
-            let glyph = BASIC_LEGACY[if c.is_ascii() {
-                c as usize
-            } else {
-                '?' as usize
-            }];
+            let glyph = BASIC_LEGACY[if c.is_ascii() { c as usize } else { '?' as usize }];
             let glyph_x = x + i as u32 * GLYPH * s;
             for (row, bits) in (0..).zip(glyph) {
                 // Bit 0 of each row byte is the leftmost pixel.
@@ -197,9 +192,7 @@ mod tests {
             assert_eq!(canvas.get_pixel(width - MARGIN - 1, bar_y).0, [255, 0, 0]);
             // Some ink in the label row and in the title row.
             let labels_top = MARGIN + BAR_HEIGHT + TICK_HEIGHT + ROW_GAP;
-            let ink_in_rows = |top: u32| {
-                (top..top + GLYPH).any(|y| (0..width).any(|x| *canvas.get_pixel(x, y) == INK))
-            };
+            let ink_in_rows = |top: u32| (top..top + GLYPH).any(|y| (0..width).any(|x| *canvas.get_pixel(x, y) == INK));
             assert!(ink_in_rows(labels_top));
             assert!(ink_in_rows(labels_top + GLYPH + ROW_GAP));
         }

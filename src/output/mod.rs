@@ -46,10 +46,7 @@ pub fn write_frame_files(
     info: &RenderInfo,
     opts: &OutputOptions,
 ) -> Result<WrittenFiles, OutputError> {
-    std::fs::create_dir_all(dir).map_err(|source| OutputError::Io {
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    std::fs::create_dir_all(dir).map_err(|source| OutputError::Io { path: dir.to_path_buf(), source })?;
     let files = WrittenFiles {
         exr: dir.join(format!("{stem}.exr")),
         preview: dir.join(format!("{stem}.png")),
@@ -69,13 +66,7 @@ pub fn write_frame_files(
             &zeros
         }
     };
-    write_false_color_png(
-        &files.filter_width_map,
-        filter_width,
-        width,
-        height,
-        "filter width (px)",
-    )?;
+    write_false_color_png(&files.filter_width_map, filter_width, width, height, "filter width (px)")?;
     Ok(files)
 }
 
@@ -95,13 +86,8 @@ mod tests {
             spp: (0..15).map(|i| i as f32).collect(),
             ..Frame::default()
         };
-        let info = RenderInfo {
-            scene: "cornell-box".into(),
-            method: "uniform".into(),
-            ..RenderInfo::default()
-        };
-        let files =
-            write_frame_files(&out, "final", &frame, &info, &OutputOptions::default()).unwrap();
+        let info = RenderInfo { scene: "cornell-box".into(), method: "uniform".into(), ..RenderInfo::default() };
+        let files = write_frame_files(&out, "final", &frame, &info, &OutputOptions::default()).unwrap();
         assert_eq!(
             files,
             WrittenFiles {
@@ -128,16 +114,9 @@ mod tests {
         // A regular file where the output directory should be.
         let blocker = dir.path().join("blocker");
         std::fs::write(&blocker, b"").unwrap();
-        let frame = Frame {
-            width: 1,
-            height: 1,
-            color: vec![[0.0; 3]],
-            spp: vec![1.0],
-            ..Frame::default()
-        };
+        let frame = Frame { width: 1, height: 1, color: vec![[0.0; 3]], spp: vec![1.0], ..Frame::default() };
         let opts = OutputOptions::default();
-        let error =
-            write_frame_files(&blocker, "x", &frame, &RenderInfo::default(), &opts).unwrap_err();
+        let error = write_frame_files(&blocker, "x", &frame, &RenderInfo::default(), &opts).unwrap_err();
         assert!(matches!(error, OutputError::Io { .. }), "{error}");
         assert!(error.to_string().contains("blocker"), "{error}");
     }

@@ -33,12 +33,7 @@ pub fn write_preview_png(path: &Path, frame: &Frame) -> Result<(), OutputError> 
     if frame.color.len() != frame.pixel_count() {
         return Err(OutputError::InvalidInput {
             path: path.to_path_buf(),
-            reason: format!(
-                "colour has {} pixels, expected {}x{}",
-                frame.color.len(),
-                frame.width,
-                frame.height
-            ),
+            reason: format!("colour has {} pixels, expected {}x{}", frame.color.len(), frame.width, frame.height),
         });
     }
     let bytes = frame.color.iter().flat_map(|&c| tonemap_srgb8(c)).collect();
@@ -56,18 +51,10 @@ pub(super) fn save_png(path: &Path, image: &RgbImage) -> Result<(), OutputError>
             reason: format!("empty {}x{} image", image.width(), image.height()),
         });
     }
-    image
-        .save_with_format(path, ImageFormat::Png)
-        .map_err(|source| match source {
-            image::ImageError::IoError(source) => OutputError::Io {
-                path: path.to_path_buf(),
-                source,
-            },
-            source => OutputError::Png {
-                path: path.to_path_buf(),
-                source,
-            },
-        })
+    image.save_with_format(path, ImageFormat::Png).map_err(|source| match source {
+        image::ImageError::IoError(source) => OutputError::Io { path: path.to_path_buf(), source },
+        source => OutputError::Png { path: path.to_path_buf(), source },
+    })
 }
 
 #[cfg(test)]
@@ -129,14 +116,7 @@ mod tests {
         let frame = Frame {
             width: 3,
             height: 2,
-            color: vec![
-                [0.0; 3],
-                [1.0; 3],
-                [0.5; 3],
-                [f32::NAN; 3],
-                [2.0, -1.0, 0.0],
-                [0.0, 0.5, 1.0],
-            ],
+            color: vec![[0.0; 3], [1.0; 3], [0.5; 3], [f32::NAN; 3], [2.0, -1.0, 0.0], [0.0, 0.5, 1.0]],
             spp: vec![1.0; 6],
             ..Frame::default()
         };
@@ -144,29 +124,14 @@ mod tests {
         let image = image::open(&path).unwrap().into_rgb8();
         assert_eq!(image.dimensions(), (3, 2));
         let pixels: Vec<[u8; 3]> = image.pixels().map(|p| p.0).collect();
-        assert_eq!(
-            pixels,
-            [
-                [0; 3],
-                [255; 3],
-                [188; 3],
-                [0; 3],
-                [255, 0, 0],
-                [0, 188, 255]
-            ]
-        );
+        assert_eq!(pixels, [[0; 3], [255; 3], [188; 3], [0; 3], [255, 0, 0], [0, 188, 255]]);
     }
 
     #[test]
     fn preview_rejects_wrong_buffer_length() {
         let dir = TempDir::new("preview_bad");
         let path = dir.path().join("p.png");
-        let frame = Frame {
-            width: 2,
-            height: 2,
-            color: vec![[0.0; 3]; 3],
-            ..Frame::default()
-        };
+        let frame = Frame { width: 2, height: 2, color: vec![[0.0; 3]; 3], ..Frame::default() };
         let error = write_preview_png(&path, &frame).unwrap_err();
         assert!(matches!(error, OutputError::InvalidInput { .. }));
         assert!(error.to_string().contains("p.png"), "{error}");

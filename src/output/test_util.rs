@@ -12,10 +12,7 @@ pub struct TempDir(PathBuf);
 impl TempDir {
     pub fn new(label: &str) -> Self {
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let path = std::env::temp_dir().join(format!(
-            "wedge-output-test-{}-{n}-{label}",
-            std::process::id()
-        ));
+        let path = std::env::temp_dir().join(format!("wedge-output-test-{}-{n}-{label}", std::process::id()));
         // A leftover from an earlier process that had the same id must not leak into this test.
         let _ = std::fs::remove_dir_all(&path);
         std::fs::create_dir_all(&path).expect("create test temp dir");

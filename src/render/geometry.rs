@@ -25,6 +25,25 @@ pub struct TriAttr {
     pub uvs: u32,
 }
 
+/// BVH build presets of obvhs: slower builds trace faster (pre-splitting, wider search).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BvhQuality {
+    Fast,
+    #[default]
+    Medium,
+    Slow,
+}
+
+impl BvhQuality {
+    fn params(self) -> BvhBuildParams {
+        match self {
+            BvhQuality::Fast => BvhBuildParams::fast_build(),
+            BvhQuality::Medium => BvhBuildParams::medium_build(),
+            BvhQuality::Slow => BvhBuildParams::slow_build(),
+        }
+    }
+}
+
 /// Collects triangles before the BVH is built.
 #[derive(Default, Clone, Debug)]
 pub struct GeometryBuilder {
@@ -86,18 +105,16 @@ impl GeometryBuilder {
         }
     }
 
-    pub fn build(self) -> Geometry {
+    pub fn build(self, quality: BvhQuality) -> Geometry {
         if self.positions.is_empty() {
             return Geometry { bvh: None, tris: Vec::new(), attrs: Vec::new(), normals: self.normals, uvs: self.uvs };
         }
-        let input: Vec<Triangle> = self
-            .positions
-            .iter()
-            .map(|p| Triangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() })
-            .collect();
+        let input: Vec<Triangle> =
+            self.positions.iter().map(|p| Triangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() }).collect();
         let mut build_time = Duration::ZERO;
-        let bvh = build_cwbvh_from_tris(&input, BvhBuildParams::medium_build(), &mut build_time);
-        // Store triangles in BVH slot order so a hit's primitive_id indexes them directly.
+        let bvh = build_cwbvh_from_tris(&input, quality.params(), &mut build_time);
+        // Store triangles in BVH slot order so a hit's primitive_id indexes them directly (with
+        // pre-splitting a triangle can occupy several slots).
         let tris = bvh.primitive_indices.iter().map(|&i| RtTriangle::from(&input[i as usize])).collect();
         let attrs = bvh.primitive_indices.iter().map(|&i| self.attrs[i as usize]).collect();
         Geometry { bvh: Some(bvh), tris, attrs, normals: self.normals, uvs: self.uvs }
@@ -201,8 +218,12 @@ mod tests {
     fn brute_force(tris: &[[Vec3; 3]], o: Vec3, d: Vec3, tmax: f32) -> Option<(f32, usize)> {
         let mut best: Option<(f32, usize)> = None;
         for (i, p) in tris.iter().enumerate() {
-            let t = RtTriangle::new(p[0].into(), p[1].into(), p[2].into())
-                .intersect(&Ray::new(o.into(), d.into(), 0.0, tmax));
+            let t = RtTriangle::new(p[0].into(), p[1].into(), p[2].into()).intersect(&Ray::new(
+                o.into(),
+                d.into(),
+                0.0,
+                tmax,
+            ));
             if t < best.map_or(tmax, |b| b.0) {
                 best = Some((t, i));
             }
@@ -222,7 +243,7 @@ mod tests {
             b.push(p, None, None, 0, i);
         }
         assert_eq!(b.degenerate, 0);
-        let g = b.build();
+        let g = b.build(BvhQuality::default());
         let (mut hits, mut occl) = (0, 0);
         for _ in 0..3000 {
             let o = rng.v() * 6.0;
@@ -255,7 +276,7 @@ mod tests {
         let mut b = GeometryBuilder::default();
         let p = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 3.0, 0.0)];
         b.push(p, None, None, 0, 0);
-        let g = b.build();
+        let g = b.build(BvhQuality::default());
         let o = Vec3::new(0.5, 1.0, 5.0);
         let h = g.intersect(o, Vec3::NEG_Z, 0.0, f32::INFINITY).unwrap();
         let v = g.vertices(h.slot);
@@ -271,7 +292,7 @@ mod tests {
         let (c, u, v) = (Vec3::new(-2.0, 0.0, -2.0), Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 4.0));
         b.push([c, c + u, c + u + v], None, None, 0, 0);
         b.push([c, c + u + v, c + v], None, None, 0, 0);
-        let g = b.build();
+        let g = b.build(BvhQuality::default());
         let o = Vec3::new(0.3, 3.0, 0.2);
         for d in [Vec3::NEG_Y, Vec3::new(-0.0, -1.0, -0.0)] {
             assert_eq!(g.intersect(o, d, 0.0, f32::INFINITY).map(|h| h.t), Some(3.0), "{d:?}");
@@ -286,7 +307,7 @@ mod tests {
         b.push([Vec3::ZERO, Vec3::ZERO, Vec3::ZERO], None, None, 0, 0);
         b.push([Vec3::ZERO, Vec3::NAN, Vec3::X], None, None, 0, 0);
         assert_eq!(b.degenerate, 3);
-        let g = b.build();
+        let g = b.build(BvhQuality::default());
         assert_eq!(g.triangle_count(), 0);
         assert!(g.intersect(Vec3::ZERO, Vec3::X, 0.0, 1.0).is_none());
         assert!(!g.occluded(Vec3::ZERO, Vec3::X, 0.0, 1.0));

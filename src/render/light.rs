@@ -156,7 +156,8 @@ mod tests {
         let f = (aa / (1.0 + aa * aa).sqrt() * (bb / (1.0 + aa * aa).sqrt()).atan()
             + bb / (1.0 + bb * bb).sqrt() * (aa / (1.0 + bb * bb).sqrt()).atan())
             / (2.0 * std::f64::consts::PI);
-        let v = [Vec3::new(0.0, 0.0, 1.5), Vec3::new(2.0, 0.0, 1.5), Vec3::new(2.0, 1.0, 1.5), Vec3::new(0.0, 1.0, 1.5)];
+        let v =
+            [Vec3::new(0.0, 0.0, 1.5), Vec3::new(2.0, 0.0, 1.5), Vec3::new(2.0, 1.0, 1.5), Vec3::new(0.0, 1.0, 1.5)];
         let e = polygon_irradiance(Vec3::ZERO, Vec3::Z, &v);
         assert!((e - std::f64::consts::PI * f).abs() < 1e-6, "{e} vs {}", std::f64::consts::PI * f);
     }
@@ -173,12 +174,16 @@ mod tests {
         );
         assert!(light.normal.z < 0.0);
         let x = Vec3::ZERO;
-        let exact = polygon_irradiance(x, Vec3::Z, &[
-            light.corner,
-            light.corner + light.edge_u,
-            light.corner + light.edge_u + light.edge_v,
-            light.corner + light.edge_v,
-        ]);
+        let exact = polygon_irradiance(
+            x,
+            Vec3::Z,
+            &[
+                light.corner,
+                light.corner + light.edge_u,
+                light.corner + light.edge_u + light.edge_v,
+                light.corner + light.edge_v,
+            ],
+        );
         let n = 4096;
         let (mut sum, mut sum2) = (0.0f64, 0.0f64);
         for i in 0..n {

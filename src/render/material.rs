@@ -12,10 +12,19 @@ pub enum GlossyModel {
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Material {
-    Lambertian { albedo: ColorTexture },
-    Glossy { diffuse: ColorTexture, specular: ColorTexture, exponent: ScalarTexture, model: GlossyModel },
+    Lambertian {
+        albedo: ColorTexture,
+    },
+    Glossy {
+        diffuse: ColorTexture,
+        specular: ColorTexture,
+        exponent: ScalarTexture,
+        model: GlossyModel,
+    },
     /// The surface of an area light: emits (see `Light`), reflects nothing.
-    Emitter { light: u32 },
+    Emitter {
+        light: u32,
+    },
 }
 
 impl Material {
@@ -25,12 +34,9 @@ impl Material {
             Material::Lambertian { albedo } => {
                 Brdf { kd: albedo.eval(uv), ks: Vec3::ZERO, exponent: 0.0, model: GlossyModel::Phong }
             }
-            Material::Glossy { diffuse, specular, exponent, model } => Brdf {
-                kd: diffuse.eval(uv),
-                ks: specular.eval(uv),
-                exponent: exponent.eval(uv),
-                model: *model,
-            },
+            Material::Glossy { diffuse, specular, exponent, model } => {
+                Brdf { kd: diffuse.eval(uv), ks: specular.eval(uv), exponent: exponent.eval(uv), model: *model }
+            }
             Material::Emitter { .. } => Brdf::BLACK,
         }
     }

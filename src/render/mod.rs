@@ -8,6 +8,7 @@ pub mod camera;
 pub mod film;
 pub mod frame;
 pub mod frame_basis;
+pub mod gbuffer;
 pub mod geometry;
 pub mod integrator;
 pub mod light;

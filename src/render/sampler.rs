@@ -92,10 +92,7 @@ impl PixelSampler {
         self.pair += 1;
         let (s_index, s_x, s_y) = (h as u32, (h >> 32) as u32, mix64(h) as u32);
         let i = nested_uniform_scramble(self.index, s_index);
-        [
-            to_unit(nested_uniform_scramble(sobol0(i), s_x)),
-            to_unit(nested_uniform_scramble(sobol1(i), s_y)),
-        ]
+        [to_unit(nested_uniform_scramble(sobol0(i), s_x)), to_unit(nested_uniform_scramble(sobol1(i), s_y))]
     }
 
     /// The next 1-D value in [0,1) (the first coordinate of a fresh pair).
@@ -131,8 +128,8 @@ mod tests {
                 let (nx, ny) = (1u32 << split, 1u32 << (k - split));
                 let mut seen = vec![false; n as usize];
                 for i in 0..n {
-                    let x = (sobol0(i) as u64 * nx as u64 >> 32) as u32;
-                    let y = (sobol1(i) as u64 * ny as u64 >> 32) as u32;
+                    let x = ((sobol0(i) as u64 * nx as u64) >> 32) as u32;
+                    let y = ((sobol1(i) as u64 * ny as u64) >> 32) as u32;
                     let cell = (y * nx + x) as usize;
                     assert!(!seen[cell], "k={k} split={split} cell {cell} hit twice");
                     seen[cell] = true;

@@ -7,7 +7,7 @@
 //! for scenes measured in millimetres or kilometres. Point-light intensity is the one
 //! radiometric quantity with a length in it (E = I / r^2), so it is rescaled by s^2.
 use super::camera::Camera;
-use super::geometry::{Geometry, GeometryBuilder, Hit, NONE};
+use super::geometry::{BvhQuality, Geometry, GeometryBuilder, Hit, NONE};
 use super::light::{Light, RectLight};
 use super::material::Material;
 use glam::{Vec2, Vec3};
@@ -33,11 +33,19 @@ pub struct SceneBuilder {
     pub materials: Vec<Material>,
     pub lights: Vec<Light>,
     pub objects: u32,
+    pub bvh_quality: BvhQuality,
 }
 
 impl SceneBuilder {
     pub fn new(camera: CameraDesc) -> Self {
-        SceneBuilder { camera, geometry: GeometryBuilder::default(), materials: Vec::new(), lights: Vec::new(), objects: 0 }
+        SceneBuilder {
+            camera,
+            geometry: GeometryBuilder::default(),
+            materials: Vec::new(),
+            lights: Vec::new(),
+            objects: 0,
+            bvh_quality: BvhQuality::default(),
+        }
     }
 
     pub fn add_material(&mut self, m: Material) -> u32 {
@@ -77,14 +85,18 @@ impl SceneBuilder {
             }
         }
         let diag = (hi - lo).length();
-        let (center, scale) =
-            if diag.is_finite() && diag > 0.0 { ((lo + hi) * 0.5, INTERNAL_DIAGONAL / diag) } else { (Vec3::ZERO, 1.0) };
+        let (center, scale) = if diag.is_finite() && diag > 0.0 {
+            ((lo + hi) * 0.5, INTERNAL_DIAGONAL / diag)
+        } else {
+            (Vec3::ZERO, 1.0)
+        };
         let to_internal = move |p: Vec3| (p - center) * scale;
         self.geometry.transform(to_internal, |n| n);
         for l in &mut self.lights {
             match l {
                 Light::Rect(r) => {
-                    *r = RectLight::new(to_internal(r.corner), r.edge_u * scale, r.edge_v * scale, r.radiance, r.profile)
+                    *r =
+                        RectLight::new(to_internal(r.corner), r.edge_u * scale, r.edge_v * scale, r.radiance, r.profile)
                 }
                 Light::Point(p) => {
                     p.position = to_internal(p.position);
@@ -99,7 +111,7 @@ impl SceneBuilder {
         let extent = if diag.is_finite() && diag > 0.0 { (hi - lo) * scale } else { Vec3::ZERO };
         Scene {
             camera,
-            geometry: self.geometry.build(),
+            geometry: self.geometry.build(self.bvh_quality),
             materials: self.materials,
             lights: self.lights,
             world_scale: scale,

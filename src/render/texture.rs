@@ -5,7 +5,11 @@ use glam::{Vec2, Vec3};
 pub enum Texture<T> {
     Constant(T),
     /// `scale` squares per unit of u and of v.
-    Checker { even: T, odd: T, scale: f32 },
+    Checker {
+        even: T,
+        odd: T,
+        scale: f32,
+    },
 }
 
 pub type ColorTexture = Texture<Vec3>;

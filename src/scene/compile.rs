@@ -48,18 +48,14 @@ pub fn compile(scene: &proto::Scene, limits: &SceneLimits, base_dir: Option<&Pat
         let Some(&material) = materials.get(material_name.as_str()) else {
             return err(format!("{path}.material"), format!("no material named {material_name:?}"));
         };
-        if !local.contains_key(&source) {
+        if let std::collections::hash_map::Entry::Vacant(slot) = local.entry(source) {
             let spath = format!("scene.shapes[{source}]");
-            let mesh = shape_mesh(&spath, &scene.shapes[source], budget, limits, base_dir)?;
-            local.insert(source, mesh);
+            slot.insert(shape_mesh(&spath, &scene.shapes[source], budget, limits, base_dir)?);
         }
         let mesh = &local[&source];
         let n = mesh.triangle_count() as u64;
         if n > budget {
-            return err(
-                path,
-                format!("the scene exceeds the limit of {} triangles", limits.max_triangles),
-            );
+            return err(path, format!("the scene exceeds the limit of {} triangles", limits.max_triangles));
         }
         budget -= n;
         let object = b.new_object();
@@ -150,7 +146,10 @@ fn materials<'a>(list: &'a [proto::Material], b: &mut SceneBuilder) -> FieldResu
                 let max = |t: &Texture<Vec3>| t.values().into_iter().fold(Vec3::ZERO, Vec3::max);
                 let sum = max(&diffuse) + max(&specular);
                 if sum.max_element() > 1.0 + 1e-6 {
-                    return err(format!("{p}.specular"), format!("diffuse + specular must be <= 1 per channel, got {sum}"));
+                    return err(
+                        format!("{p}.specular"),
+                        format!("diffuse + specular must be <= 1 per channel, got {sum}"),
+                    );
                 }
                 Material::Glossy {
                     diffuse,
@@ -180,10 +179,16 @@ fn add_light(path: &str, l: &proto::Light, b: &mut SceneBuilder) -> FieldResult<
             let u = vec3(&format!("{p}.edge_u"), &r.edge_u)?;
             let v = vec3(&format!("{p}.edge_v"), &r.edge_v)?;
             if !(u.length_squared() > 0.0) {
-                return err(format!("{p}.edge_u"), "must be non-zero (a light needs area > 0; use a point light for a point)");
+                return err(
+                    format!("{p}.edge_u"),
+                    "must be non-zero (a light needs area > 0; use a point light for a point)",
+                );
             }
             if !(v.length_squared() > 0.0) {
-                return err(format!("{p}.edge_v"), "must be non-zero (a light needs area > 0; use a point light for a point)");
+                return err(
+                    format!("{p}.edge_v"),
+                    "must be non-zero (a light needs area > 0; use a point light for a point)",
+                );
             }
             let area = u.cross(v).length();
             if !(area > 0.0) || !area.is_finite() {
@@ -244,17 +249,23 @@ fn shape_mesh(
     }
 }
 
-fn mesh(path: &str, m: &proto::Mesh, budget: u64, limits: &SceneLimits, base_dir: Option<&Path>) -> FieldResult<TriMesh> {
+fn mesh(
+    path: &str,
+    m: &proto::Mesh,
+    budget: u64,
+    limits: &SceneLimits,
+    base_dir: Option<&Path>,
+) -> FieldResult<TriMesh> {
     if !m.path.is_empty() {
         if !m.positions.is_empty() || !m.indices.is_empty() {
             return err(format!("{path}.path"), "give either a path or inline arrays, not both");
         }
         return mesh_file(&format!("{path}.path"), &m.path, budget, limits, base_dir);
     }
-    if m.positions.len() % 3 != 0 {
+    if !m.positions.len().is_multiple_of(3) {
         return err(format!("{path}.positions"), format!("length must be a multiple of 3, got {}", m.positions.len()));
     }
-    if m.indices.len() % 3 != 0 {
+    if !m.indices.len().is_multiple_of(3) {
         return err(format!("{path}.indices"), format!("length must be a multiple of 3, got {}", m.indices.len()));
     }
     if m.indices.is_empty() {
@@ -266,7 +277,10 @@ fn mesh(path: &str, m: &proto::Mesh, budget: u64, limits: &SceneLimits, base_dir
     let nv = m.positions.len() / 3;
     let floats = |name: &str, v: &[f32], k: usize| -> FieldResult<()> {
         if v.len() != k * nv {
-            return err(format!("{path}.{name}"), format!("must have {} numbers ({k} per vertex), got {}", k * nv, v.len()));
+            return err(
+                format!("{path}.{name}"),
+                format!("must have {} numbers ({k} per vertex), got {}", k * nv, v.len()),
+            );
         }
         match v.iter().position(|x| !x.is_finite()) {
             Some(i) => err(format!("{path}.{name}[{i}]"), format!("must be a finite number, got {}", v[i])),
@@ -310,7 +324,13 @@ pub(crate) fn load_mesh_file(
     meshfile::load_mesh(&resolved, budget).or_else(|e| err(path, e.to_string()))
 }
 
-fn mesh_file(path: &str, file: &str, budget: u64, limits: &SceneLimits, base_dir: Option<&Path>) -> FieldResult<TriMesh> {
+fn mesh_file(
+    path: &str,
+    file: &str,
+    budget: u64,
+    limits: &SceneLimits,
+    base_dir: Option<&Path>,
+) -> FieldResult<TriMesh> {
     let (Some(root), Some(base)) = (&limits.mesh_root, base_dir) else {
         return err(path, "mesh files are not allowed here (only in scene files under the mesh root)");
     };

@@ -65,11 +65,7 @@ pub enum MeshFileError {
     #[error("{}: unsupported mesh file type (expected a .obj or .ply extension)", path.display())]
     UnsupportedFormat { path: PathBuf },
     #[error("{name}{location}: {message}")]
-    Parse {
-        name: String,
-        location: Location,
-        message: String,
-    },
+    Parse { name: String, location: Location, message: String },
     #[error("{name}: mesh has more than {limit} triangles (the triangle limit)")]
     TooManyTriangles { name: String, limit: u64 },
     #[error("{name}: mesh has no triangles")]
@@ -80,20 +76,13 @@ impl MeshFileError {
     /// The 1-based line of a text file the error points at, if any.
     pub fn line(&self) -> Option<usize> {
         match self {
-            MeshFileError::Parse {
-                location: Location::Line(line) | Location::Header(Some(line)),
-                ..
-            } => Some(*line),
+            MeshFileError::Parse { location: Location::Line(line) | Location::Header(Some(line)), .. } => Some(*line),
             _ => None,
         }
     }
 
     fn parse(name: &str, location: Location, message: impl Into<String>) -> Self {
-        MeshFileError::Parse {
-            name: name.to_owned(),
-            location,
-            message: message.into(),
-        }
+        MeshFileError::Parse { name: name.to_owned(), location, message: message.into() }
     }
 
     fn at_line(name: &str, line: usize, message: impl Into<String>) -> Self {
@@ -101,10 +90,7 @@ impl MeshFileError {
     }
 
     fn too_many_triangles(name: &str, limit: u64) -> Self {
-        MeshFileError::TooManyTriangles {
-            name: name.to_owned(),
-            limit,
-        }
+        MeshFileError::TooManyTriangles { name: name.to_owned(), limit }
     }
 }
 
@@ -118,16 +104,9 @@ pub fn load_mesh(path: &Path, max_triangles: u64) -> Result<MeshData, MeshFileEr
     let kind = match path.extension().and_then(|e| e.to_str()) {
         Some(ext) if ext.eq_ignore_ascii_case("obj") => Kind::Obj,
         Some(ext) if ext.eq_ignore_ascii_case("ply") => Kind::Ply,
-        _ => {
-            return Err(MeshFileError::UnsupportedFormat {
-                path: path.to_path_buf(),
-            })
-        }
+        _ => return Err(MeshFileError::UnsupportedFormat { path: path.to_path_buf() }),
     };
-    let bytes = std::fs::read(path).map_err(|source| MeshFileError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = std::fs::read(path).map_err(|source| MeshFileError::Io { path: path.to_path_buf(), source })?;
     let name = path.display().to_string();
     match kind {
         // Names and comments in OBJ files are often in a legacy 8-bit encoding; they are ignored,

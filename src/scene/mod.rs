@@ -17,7 +17,12 @@ pub use compile::MAX_EXPONENT;
 /// Replaces every mesh file path in a scene file's shapes with the file's contents as inline
 /// arrays, so that the scene can travel over gRPC (servers refuse file paths). Paths resolve
 /// as in `compile`: from `base_dir`, inside `root`.
-pub fn inline_mesh_files(scene: &mut proto::Scene, base_dir: &Path, root: &Path, max_triangles: u64) -> Result<(), FieldError> {
+pub fn inline_mesh_files(
+    scene: &mut proto::Scene,
+    base_dir: &Path,
+    root: &Path,
+    max_triangles: u64,
+) -> Result<(), FieldError> {
     for (i, shape) in scene.shapes.iter_mut().enumerate() {
         let Some(proto::shape::Geometry::Mesh(m)) = &mut shape.geometry else { continue };
         if m.path.is_empty() {

@@ -48,7 +48,8 @@ pub fn cuboid(path: &str, b: &proto::Box) -> FieldResult<TriMesh> {
     if !(lo.cmplt(hi).all()) {
         return err(format!("{path}.max"), format!("must exceed min on every axis (min {lo}, max {hi})"));
     }
-    let mut m = TriMesh { uvs: Some(Vec::new()), ..TriMesh::default() };
+    let mut m = TriMesh::default();
+    let mut uvs = Vec::new();
     let s = hi - lo;
     let (ex, ey, ez) = (Vec3::new(s.x, 0.0, 0.0), Vec3::new(0.0, s.y, 0.0), Vec3::new(0.0, 0.0, s.z));
     // Each face: a corner and two edges (-x, +x, -y, +y, -z, +z).
@@ -59,9 +60,10 @@ pub fn cuboid(path: &str, b: &proto::Box) -> FieldResult<TriMesh> {
         let (u, v) = if u.cross(v).dot(c + 0.5 * (u + v) - centre) < 0.0 { (v, u) } else { (u, v) };
         let k = m.positions.len() as u32;
         m.positions.extend([c, c + u, c + u + v, c + v]);
-        m.uvs.as_mut().map(|uv| uv.extend([Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y]));
+        uvs.extend([Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y]);
         m.indices.extend([[k, k + 1, k + 2], [k, k + 2, k + 3]]);
     }
+    m.uvs = Some(uvs);
     Ok(m)
 }
 
@@ -76,7 +78,8 @@ pub fn sphere(path: &str, s: &proto::Sphere) -> FieldResult<TriMesh> {
         return err(format!("{path}.subdivisions"), format!("must be in [2, {MAX_SPHERE_BANDS}], got {bands}"));
     }
     let segs = 2 * bands;
-    let mut m = TriMesh { normals: Some(Vec::new()), uvs: Some(Vec::new()), ..TriMesh::default() };
+    let mut m = TriMesh::default();
+    let (mut normals, mut uvs) = (Vec::new(), Vec::new());
     for i in 0..=bands {
         // Exact poles (sin(pi) is not 0 in f32): their zero-area triangles are then dropped,
         // rather than kept as slivers of random orientation.
@@ -89,10 +92,11 @@ pub fn sphere(path: &str, s: &proto::Sphere) -> FieldResult<TriMesh> {
             let phi = 2.0 * PI * j as f32 / segs as f32;
             let n = Vec3::new(st * phi.cos(), ct, st * phi.sin());
             m.positions.push(c + r * n);
-            m.normals.as_mut().map(|v| v.push(n));
-            m.uvs.as_mut().map(|v| v.push(Vec2::new(j as f32 / segs as f32, i as f32 / bands as f32)));
+            normals.push(n);
+            uvs.push(Vec2::new(j as f32 / segs as f32, i as f32 / bands as f32));
         }
     }
+    (m.normals, m.uvs) = (Some(normals), Some(uvs));
     let row = segs + 1;
     for i in 0..bands {
         for j in 0..segs {
@@ -133,11 +137,8 @@ pub fn transform(path: &str, t: &Option<proto::Transform>) -> FieldResult<Mat4> 
     } else {
         glam::Quat::IDENTITY
     };
-    let m = Mat4::from_scale_rotation_translation(
-        scale.unwrap_or(Vec3::ONE),
-        rotation,
-        translate.unwrap_or(Vec3::ZERO),
-    );
+    let m =
+        Mat4::from_scale_rotation_translation(scale.unwrap_or(Vec3::ONE), rotation, translate.unwrap_or(Vec3::ZERO));
     invertible(path, m)
 }
 

@@ -17,7 +17,7 @@ pub(crate) fn small_scene(width: u32, height: u32) -> Arc<Scene> {
         height,
     });
     let white = b.add_material(Material::Lambertian { albedo: Texture::Constant(Vec3::splat(0.7)) });
-    let mut quad = |b: &mut SceneBuilder, c: Vec3, u: Vec3, v: Vec3| {
+    let quad = |b: &mut SceneBuilder, c: Vec3, u: Vec3, v: Vec3| {
         let o = b.new_object();
         b.geometry.push([c, c + u, c + u + v], None, None, white, o);
         b.geometry.push([c, c + u + v, c + v], None, None, white, o);

@@ -47,11 +47,17 @@ fn errors_name_the_offending_field() {
         (error_of(|s| s.camera.as_mut().unwrap().width = 0), "scene.camera.width"),
         (error_of(|s| s.camera.as_mut().unwrap().vertical_fov_deg = 180.0), "scene.camera.vertical_fov_deg"),
         (error_of(|s| s.camera.as_mut().unwrap().vertical_fov_deg = f32::NAN), "scene.camera.vertical_fov_deg"),
-        (error_of(|s| s.camera.as_mut().unwrap().look_at = Some(proto::Vec3 { x: 0.0, y: 0.0, z: 5.0 })), "scene.camera.look_at"),
+        (
+            error_of(|s| s.camera.as_mut().unwrap().look_at = Some(proto::Vec3 { x: 0.0, y: 0.0, z: 5.0 })),
+            "scene.camera.look_at",
+        ),
         (error_of(|s| s.camera.as_mut().unwrap().up = Some(proto::Vec3 { x: 0.0, y: 0.0, z: 1.0 })), "scene.camera.up"),
         (error_of(|s| rect(s).edge_u = Some(proto::Vec3::default())), "scene.lights[0].rect.edge_u"),
         (error_of(|s| rect(s).edge_v = Some(proto::Vec3 { x: 3.0, y: 0.0, z: 0.0 })), "scene.lights[0].rect.edge_v"),
-        (error_of(|s| rect(s).radiance = Some(proto::Rgb { r: f32::INFINITY, g: 0.0, b: 0.0 })), "scene.lights[0].rect.radiance.r"),
+        (
+            error_of(|s| rect(s).radiance = Some(proto::Rgb { r: f32::INFINITY, g: 0.0, b: 0.0 })),
+            "scene.lights[0].rect.radiance.r",
+        ),
         (error_of(|s| rect(s).profile = 7), "scene.lights[0].rect.profile"),
         (error_of(|s| s.lights.push(proto::Light::default())), "scene.lights[1]"),
         (error_of(|s| s.shapes[0].material = "nope".into()), "scene.shapes[0].material"),
@@ -88,13 +94,17 @@ fn errors_name_the_offending_field() {
         ),
         (
             error_of(|s| {
-                s.shapes[0].geometry =
-                    Some(proto::shape::Geometry::Mesh(proto::Mesh { path: "../../etc/passwd".into(), ..Default::default() }))
+                s.shapes[0].geometry = Some(proto::shape::Geometry::Mesh(proto::Mesh {
+                    path: "../../etc/passwd".into(),
+                    ..Default::default()
+                }))
             }),
             "scene.shapes[0].mesh.path",
         ),
         (
-            error_of(|s| s.shapes[0].geometry = Some(proto::shape::Geometry::Instance(proto::Instance { shape: "x".into() }))),
+            error_of(|s| {
+                s.shapes[0].geometry = Some(proto::shape::Geometry::Instance(proto::Instance { shape: "x".into() }))
+            }),
             "scene.shapes[0].instance.shape",
         ),
         (error_of(|s| s.materials[0].name = String::new()), "scene.materials[0].name"),
@@ -102,8 +112,12 @@ fn errors_name_the_offending_field() {
         (
             error_of(|s| {
                 s.materials[0].kind = Some(proto::material::Kind::Glossy(proto::Glossy {
-                    diffuse: Some(proto::ColorTexture { kind: Some(proto::color_texture::Kind::Constant(proto::Rgb { r: 0.6, g: 0.6, b: 0.6 })) }),
-                    specular: Some(proto::ColorTexture { kind: Some(proto::color_texture::Kind::Constant(proto::Rgb { r: 0.6, g: 0.1, b: 0.1 })) }),
+                    diffuse: Some(proto::ColorTexture {
+                        kind: Some(proto::color_texture::Kind::Constant(proto::Rgb { r: 0.6, g: 0.6, b: 0.6 })),
+                    }),
+                    specular: Some(proto::ColorTexture {
+                        kind: Some(proto::color_texture::Kind::Constant(proto::Rgb { r: 0.6, g: 0.1, b: 0.1 })),
+                    }),
                     exponent: Some(proto::ScalarTexture { kind: Some(proto::scalar_texture::Kind::Constant(10.0)) }),
                     model: 0,
                 }))
@@ -135,7 +149,10 @@ fn instances_copy_geometry_with_their_own_transform() {
     let mut s = base();
     s.shapes.push(proto::Shape {
         material: String::new(),
-        transform: Some(proto::Transform { translate: Some(proto::Vec3 { x: 0.0, y: 0.0, z: -1.0 }), ..Default::default() }),
+        transform: Some(proto::Transform {
+            translate: Some(proto::Vec3 { x: 0.0, y: 0.0, z: -1.0 }),
+            ..Default::default()
+        }),
         geometry: Some(proto::shape::Geometry::Instance(proto::Instance { shape: "q".into() })),
         ..Default::default()
     });

@@ -94,17 +94,9 @@ pub(super) fn parse(text: &str, name: &str, max_triangles: u64) -> Result<MeshDa
     }
 
     if triangles.is_empty() {
-        return Err(MeshFileError::Empty {
-            name: name.to_owned(),
-        });
+        return Err(MeshFileError::Empty { name: name.to_owned() });
     }
-    Ok(unify(
-        &positions,
-        all_have_uv.then_some(&uvs[..]),
-        all_have_normal.then_some(&normals[..]),
-        &corners,
-        triangles,
-    ))
+    Ok(unify(&positions, all_have_uv.then_some(&uvs[..]), all_have_normal.then_some(&normals[..]), &corners, triangles))
 }
 
 /// Fails if another attribute of this kind would not leave room for the `NONE` sentinel.
@@ -118,21 +110,14 @@ fn check_room(len: usize, plural: &str) -> Result<(), String> {
 
 /// Parses all remaining tokens of a `v`/`vt`/`vn` statement as finite numbers; returns the
 /// first three (missing ones zero) and how many there were.
-fn numbers<'a>(
-    tokens: impl Iterator<Item = &'a str>,
-    keyword: &str,
-) -> Result<([f32; 3], usize), String> {
+fn numbers<'a>(tokens: impl Iterator<Item = &'a str>, keyword: &str) -> Result<([f32; 3], usize), String> {
     let mut out = [0.0f32; 3];
     let mut n = 0usize;
     for token in tokens {
-        let value: f32 = token
-            .parse()
-            .map_err(|_| format!("invalid number {} in {keyword} statement", shown(token)))?;
+        let value: f32 =
+            token.parse().map_err(|_| format!("invalid number {} in {keyword} statement", shown(token)))?;
         if !value.is_finite() {
-            return Err(format!(
-                "non-finite number {} in {keyword} statement",
-                shown(token)
-            ));
+            return Err(format!("non-finite number {} in {keyword} statement", shown(token)));
         }
         if let Some(slot) = out.get_mut(n) {
             *slot = value;
@@ -143,12 +128,7 @@ fn numbers<'a>(
 }
 
 /// Parses a face corner `v`, `v/vt`, `v//vn` or `v/vt/vn` against the attributes defined so far.
-fn parse_corner(
-    token: &str,
-    positions: &[[f32; 3]],
-    uvs: &[[f32; 2]],
-    normals: &[[f32; 3]],
-) -> Result<Corner, String> {
+fn parse_corner(token: &str, positions: &[[f32; 3]], uvs: &[[f32; 2]], normals: &[[f32; 3]]) -> Result<Corner, String> {
     let mut parts = token.split('/');
     let v = parts.next().unwrap_or("");
     let vt = parts.next().unwrap_or("");
@@ -157,57 +137,29 @@ fn parse_corner(
         return Err(format!("invalid face vertex {}", shown(token)));
     }
     if v.is_empty() {
-        return Err(format!(
-            "face vertex {} has no position index",
-            shown(token)
-        ));
+        return Err(format!("face vertex {} has no position index", shown(token)));
     }
     let v = resolve(v, positions.len(), "face index", "vertex", "vertices")?;
     let vt = if vt.is_empty() {
         NONE
     } else {
-        resolve(
-            vt,
-            uvs.len(),
-            "texture coordinate index",
-            "texture coordinate",
-            "texture coordinates",
-        )?
+        resolve(vt, uvs.len(), "texture coordinate index", "texture coordinate", "texture coordinates")?
     };
-    let vn = if vn.is_empty() {
-        NONE
-    } else {
-        resolve(vn, normals.len(), "normal index", "normal", "normals")?
-    };
+    let vn = if vn.is_empty() { NONE } else { resolve(vn, normals.len(), "normal index", "normal", "normals")? };
     Ok(Corner { v, vt, vn })
 }
 
 /// Resolves a 1-based (or negative, relative to the end) OBJ index against `count` entries
 /// defined so far into a 0-based index.
-fn resolve(
-    token: &str,
-    count: usize,
-    what: &str,
-    singular: &str,
-    plural: &str,
-) -> Result<u32, String> {
-    let index: i64 = token
-        .parse()
-        .map_err(|_| format!("invalid {what} {}", shown(token)))?;
+fn resolve(token: &str, count: usize, what: &str, singular: &str, plural: &str) -> Result<u32, String> {
+    let index: i64 = token.parse().map_err(|_| format!("invalid {what} {}", shown(token)))?;
     if index == 0 {
         return Err(format!("{what} 0 is invalid (OBJ indices start at 1)"));
     }
     let count_i = count as i128;
-    let resolved = if index > 0 {
-        i128::from(index) - 1
-    } else {
-        count_i + i128::from(index)
-    };
+    let resolved = if index > 0 { i128::from(index) - 1 } else { count_i + i128::from(index) };
     if resolved < 0 || resolved >= count_i {
-        return Err(format!(
-            "{what} {index} out of range ({})",
-            count_of(count as u64, singular, plural)
-        ));
+        return Err(format!("{what} {index} out of range ({})", count_of(count as u64, singular, plural)));
     }
     u32::try_from(resolved).map_err(|_| format!("{what} {index} out of range"))
 }

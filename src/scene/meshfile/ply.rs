@@ -161,23 +161,13 @@ struct FacePlan {
     indices: usize,
 }
 
-pub(super) fn parse(
-    bytes: &[u8],
-    name: &str,
-    max_triangles: u64,
-) -> Result<MeshData, MeshFileError> {
+pub(super) fn parse(bytes: &[u8], name: &str, max_triangles: u64) -> Result<MeshData, MeshFileError> {
     let header = parse_header(bytes, name)?;
     let (vertex, face) = plan(&header, name, max_triangles)?;
     let body = bytes.get(header.body_start..).unwrap_or(&[]);
     match header.format {
         Format::Ascii => {
-            let mut reader = AsciiReader {
-                name,
-                body,
-                pos: 0,
-                line: header.lines,
-                tokens: "".split_whitespace(),
-            };
+            let mut reader = AsciiReader { name, body, pos: 0, line: header.lines, tokens: "".split_whitespace() };
             read_body(&mut reader, &header, &vertex, &face, name, max_triangles)
         }
         Format::BinaryLe | Format::BinaryBe => {
@@ -218,8 +208,7 @@ fn parse_header(bytes: &[u8], name: &str) -> Result<Header, MeshFileError> {
         };
         pos = next;
         line_no += 1;
-        let err =
-            |message: String| MeshFileError::parse(name, Location::Header(Some(line_no)), message);
+        let err = |message: String| MeshFileError::parse(name, Location::Header(Some(line_no)), message);
         let text = String::from_utf8_lossy(line_bytes);
         let mut tokens = text.split_whitespace();
         let keyword = tokens.next();
@@ -240,10 +229,7 @@ fn parse_header(bytes: &[u8], name: &str) -> Result<Header, MeshFileError> {
                     return Err(err("duplicate format line".into()));
                 }
                 let [kind, version] = args[..] else {
-                    return Err(err(
-                        "expected \"format <ascii|binary_little_endian|binary_big_endian> 1.0\""
-                            .into(),
-                    ));
+                    return Err(err("expected \"format <ascii|binary_little_endian|binary_big_endian> 1.0\"".into()));
                 };
                 format = Some(match kind {
                     "ascii" => Format::Ascii,
@@ -259,49 +245,29 @@ fn parse_header(bytes: &[u8], name: &str) -> Result<Header, MeshFileError> {
                 let [element_name, count] = args[..] else {
                     return Err(err("expected \"element <name> <count>\"".into()));
                 };
-                let count: u64 = count
-                    .parse()
-                    .map_err(|_| err(format!("invalid element count {}", shown(count))))?;
+                let count: u64 = count.parse().map_err(|_| err(format!("invalid element count {}", shown(count))))?;
                 if !element_names.insert(element_name.to_owned()) {
                     return Err(err(format!("duplicate element {}", shown(element_name))));
                 }
                 property_names.clear();
-                elements.push(Element {
-                    name: element_name.to_owned(),
-                    count,
-                    props: Vec::new(),
-                    line: line_no,
-                });
+                elements.push(Element { name: element_name.to_owned(), count, props: Vec::new(), line: line_no });
             }
             "property" => {
                 let Some(element) = elements.last_mut() else {
                     return Err(err("property before any element".into()));
                 };
-                let scalar = |s: &str| {
-                    Scalar::parse(s)
-                        .ok_or_else(|| err(format!("unknown property type {}", shown(s))))
-                };
+                let scalar =
+                    |s: &str| Scalar::parse(s).ok_or_else(|| err(format!("unknown property type {}", shown(s))));
                 let (kind, prop_name) = match args[..] {
                     ["list", count, item, prop_name] => {
                         let count = scalar(count)?;
                         if !count.is_int() {
-                            return Err(err(format!(
-                                "list count type must be an integer type, not {}",
-                                count.name()
-                            )));
+                            return Err(err(format!("list count type must be an integer type, not {}", count.name())));
                         }
-                        (
-                            Kind::List {
-                                count,
-                                item: scalar(item)?,
-                            },
-                            prop_name,
-                        )
+                        (Kind::List { count, item: scalar(item)? }, prop_name)
                     }
                     ["list", ..] => {
-                        return Err(err(
-                            "expected \"property list <count type> <item type> <name>\"".into(),
-                        ))
+                        return Err(err("expected \"property list <count type> <item type> <name>\"".into()))
                     }
                     [ty, prop_name] => (Kind::Scalar(scalar(ty)?), prop_name),
                     _ => return Err(err("expected \"property <type> <name>\"".into())),
@@ -313,21 +279,13 @@ fn parse_header(bytes: &[u8], name: &str) -> Result<Header, MeshFileError> {
                         shown(&element.name)
                     )));
                 }
-                element.props.push(Property {
-                    name: prop_name.to_owned(),
-                    kind,
-                });
+                element.props.push(Property { name: prop_name.to_owned(), kind });
             }
             "end_header" => {
                 let Some(format) = format else {
                     return Err(err("end_header before the format line".into()));
                 };
-                return Ok(Header {
-                    format,
-                    elements,
-                    body_start: pos,
-                    lines: line_no,
-                });
+                return Ok(Header { format, elements, body_start: pos, lines: line_no });
             }
             _ => return Err(err(format!("unknown header keyword {}", shown(keyword)))),
         }
@@ -335,21 +293,9 @@ fn parse_header(bytes: &[u8], name: &str) -> Result<Header, MeshFileError> {
 }
 
 /// Checks that the header describes a triangle mesh and finds the properties to read.
-fn plan(
-    header: &Header,
-    name: &str,
-    max_triangles: u64,
-) -> Result<(VertexPlan, FacePlan), MeshFileError> {
-    let header_err = |line: Option<usize>, message: String| {
-        MeshFileError::parse(name, Location::Header(line), message)
-    };
-    let find = |wanted: &str| {
-        header
-            .elements
-            .iter()
-            .enumerate()
-            .find(|(_, e)| e.name == wanted)
-    };
+fn plan(header: &Header, name: &str, max_triangles: u64) -> Result<(VertexPlan, FacePlan), MeshFileError> {
+    let header_err = |line: Option<usize>, message: String| MeshFileError::parse(name, Location::Header(line), message);
+    let find = |wanted: &str| header.elements.iter().enumerate().find(|(_, e)| e.name == wanted);
 
     let Some((vertex_index, vertex)) = find("vertex") else {
         return Err(header_err(None, "no vertex element".into()));
@@ -357,39 +303,23 @@ fn plan(
     let scalar_prop = |prop: &str| -> Result<Option<usize>, MeshFileError> {
         match vertex.prop(prop) {
             None => Ok(None),
-            Some((
-                i,
-                Property {
-                    kind: Kind::Scalar(_),
-                    ..
-                },
-            )) => Ok(Some(i)),
-            Some(_) => Err(header_err(
-                Some(vertex.line),
-                format!("vertex property {prop} must be a scalar, not a list"),
-            )),
+            Some((i, Property { kind: Kind::Scalar(_), .. })) => Ok(Some(i)),
+            Some(_) => {
+                Err(header_err(Some(vertex.line), format!("vertex property {prop} must be a scalar, not a list")))
+            }
         }
     };
     let mut xyz = [0usize; 3];
     for (slot, axis) in xyz.iter_mut().zip(["x", "y", "z"]) {
-        *slot = scalar_prop(axis)?.ok_or_else(|| {
-            header_err(
-                Some(vertex.line),
-                format!("vertex element has no {axis} property"),
-            )
-        })?;
+        *slot = scalar_prop(axis)?
+            .ok_or_else(|| header_err(Some(vertex.line), format!("vertex element has no {axis} property")))?;
     }
     let normal = match (scalar_prop("nx")?, scalar_prop("ny")?, scalar_prop("nz")?) {
         (Some(x), Some(y), Some(z)) => Some([x, y, z]),
         _ => None,
     };
     let mut uv = None;
-    for (u, v) in [
-        ("u", "v"),
-        ("s", "t"),
-        ("texture_u", "texture_v"),
-        ("texture_s", "texture_t"),
-    ] {
+    for (u, v) in [("u", "v"), ("s", "t"), ("texture_u", "texture_v"), ("texture_s", "texture_t")] {
         if let (Some(u), Some(v)) = (scalar_prop(u)?, scalar_prop(v)?) {
             uv = Some([u, v]);
             break;
@@ -398,63 +328,35 @@ fn plan(
     if vertex.count > u64::from(u32::MAX) {
         return Err(header_err(
             Some(vertex.line),
-            format!(
-                "{} vertices is more than 32-bit indices can address",
-                vertex.count
-            ),
+            format!("{} vertices is more than 32-bit indices can address", vertex.count),
         ));
     }
 
     let Some((face_index, face)) = find("face") else {
         // A point cloud (or triangle strips, which are not supported).
-        return Err(MeshFileError::Empty {
-            name: name.to_owned(),
-        });
+        return Err(MeshFileError::Empty { name: name.to_owned() });
     };
     let indices = face
         .prop("vertex_indices")
         .or_else(|| face.prop("vertex_index"))
-        .ok_or_else(|| {
-            header_err(
-                Some(face.line),
-                "face element has no vertex_indices list".into(),
-            )
-        })?;
+        .ok_or_else(|| header_err(Some(face.line), "face element has no vertex_indices list".into()))?;
     match indices.1.kind {
         Kind::List { item, .. } if item.is_int() => {}
         Kind::List { item, .. } => {
             return Err(header_err(
                 Some(face.line),
-                format!(
-                    "face {} must be a list of integers, not {}",
-                    indices.1.name,
-                    item.name()
-                ),
+                format!("face {} must be a list of integers, not {}", indices.1.name, item.name()),
             ))
         }
         Kind::Scalar(_) => {
-            return Err(header_err(
-                Some(face.line),
-                format!("face {} must be a list property", indices.1.name),
-            ))
+            return Err(header_err(Some(face.line), format!("face {} must be a list property", indices.1.name)))
         }
     }
     // Every face gives at least one triangle (smaller faces are an error).
     if face.count > max_triangles {
         return Err(MeshFileError::too_many_triangles(name, max_triangles));
     }
-    Ok((
-        VertexPlan {
-            element: vertex_index,
-            xyz,
-            normal,
-            uv,
-        },
-        FacePlan {
-            element: face_index,
-            indices: indices.0,
-        },
-    ))
+    Ok((VertexPlan { element: vertex_index, xyz, normal, uv }, FacePlan { element: face_index, indices: indices.0 }))
 }
 
 /// Reading one body format. Errors name the current line (ascii) or element instance (binary).
@@ -473,12 +375,7 @@ trait Reader<'a> {
     fn end_row(&mut self) -> Result<(), MeshFileError>;
     /// Skips all `count` instances of `element`, whose instances all take `stride` bytes, if
     /// this format can do so without reading them one by one; returns whether it did.
-    fn skip_fixed_rows(
-        &mut self,
-        element: &'a str,
-        count: u64,
-        stride: usize,
-    ) -> Result<bool, MeshFileError>;
+    fn skip_fixed_rows(&mut self, element: &'a str, count: u64, stride: usize) -> Result<bool, MeshFileError>;
     fn error(&self, message: String) -> MeshFileError;
 }
 
@@ -509,17 +406,9 @@ fn read_body<'a, R: Reader<'a>>(
             if vertex.uv.is_some() {
                 uvs.reserve(cap);
             }
-            read_vertices(
-                r,
-                element,
-                vertex,
-                &mut mesh.positions,
-                &mut normals,
-                &mut uvs,
-            )?;
+            read_vertices(r, element, vertex, &mut mesh.positions, &mut normals, &mut uvs)?;
         } else if index == face.element {
-            mesh.indices
-                .reserve(cap.min(usize::try_from(max_triangles).unwrap_or(usize::MAX)));
+            mesh.indices.reserve(cap.min(usize::try_from(max_triangles).unwrap_or(usize::MAX)));
             read_faces(
                 r,
                 element,
@@ -534,9 +423,7 @@ fn read_body<'a, R: Reader<'a>>(
         }
     }
     if mesh.indices.is_empty() {
-        return Err(MeshFileError::Empty {
-            name: name.to_owned(),
-        });
+        return Err(MeshFileError::Empty { name: name.to_owned() });
     }
     mesh.normals = vertex.normal.map(|_| normals);
     mesh.uvs = vertex.uv.map(|_| uvs);
@@ -636,10 +523,9 @@ fn read_faces<'a, R: Reader<'a>>(
                 Kind::List { count, item } if p == indices_prop => {
                     let n = r.list_len(count)?;
                     if n < 3 {
-                        return Err(r.error(format!(
-                            "face has {} (at least 3 needed)",
-                            count_of(n, "vertex", "vertices")
-                        )));
+                        return Err(
+                            r.error(format!("face has {} (at least 3 needed)", count_of(n, "vertex", "vertices")))
+                        );
                     }
                     let total = (triangles.len() as u64).checked_add(n - 2);
                     if total.is_none_or(|t| t > max_triangles) {
@@ -649,9 +535,7 @@ fn read_faces<'a, R: Reader<'a>>(
                         let value = match r.scalar(item)? {
                             Num::Int(i) => i,
                             // Item types are checked to be integers in the header.
-                            Num::Float(f) => {
-                                return Err(r.error(format!("vertex index {f} is not an integer")))
-                            }
+                            Num::Float(f) => return Err(r.error(format!("vertex index {f} is not an integer"))),
                         };
                         match u32::try_from(value) {
                             Ok(v) if u64::from(v) < vertex_count => Ok(v),
@@ -722,34 +606,20 @@ struct AsciiReader<'a> {
 
 impl<'a> AsciiReader<'a> {
     fn token(&mut self) -> Result<&'a str, MeshFileError> {
-        self.tokens
-            .next()
-            .ok_or_else(|| self.error("too few values on the line".into()))
+        self.tokens.next().ok_or_else(|| self.error("too few values on the line".into()))
     }
 
     fn int_token(&mut self, ty: Scalar, what: &str) -> Result<i64, MeshFileError> {
         let token = self.token()?;
         let value = token.parse::<i64>().ok().or_else(|| {
             // Some writers print integers as floats ("3.0").
-            token
-                .parse::<f64>()
-                .ok()
-                .filter(|f| f.fract() == 0.0 && f.abs() < 9.0e18)
-                .map(|f| f as i64)
+            token.parse::<f64>().ok().filter(|f| f.fract() == 0.0 && f.abs() < 9.0e18).map(|f| f as i64)
         });
         let (min, max) = ty.int_range();
         match value {
             Some(v) if (min..=max).contains(&v) => Ok(v),
-            Some(_) => Err(self.error(format!(
-                "{what} {} out of range for type {}",
-                shown(token),
-                ty.name()
-            ))),
-            None => Err(self.error(format!(
-                "invalid {what} {} (expected {})",
-                shown(token),
-                ty.name()
-            ))),
+            Some(_) => Err(self.error(format!("{what} {} out of range for type {}", shown(token), ty.name()))),
+            None => Err(self.error(format!("invalid {what} {} (expected {})", shown(token), ty.name()))),
         }
     }
 }
@@ -771,10 +641,7 @@ impl<'a> Reader<'a> for AsciiReader<'a> {
                 return Err(MeshFileError::at_line(
                     self.name,
                     self.line + 1,
-                    format!(
-                        "unexpected end of file: {} {element} instances declared, found {index}",
-                        count
-                    ),
+                    format!("unexpected end of file: {} {element} instances declared, found {index}", count),
                 ));
             }
             let (line, next) = match rest.iter().position(|&b| b == b'\n') {
@@ -830,12 +697,7 @@ impl<'a> Reader<'a> for AsciiReader<'a> {
         }
     }
 
-    fn skip_fixed_rows(
-        &mut self,
-        _element: &'a str,
-        _count: u64,
-        _stride: usize,
-    ) -> Result<bool, MeshFileError> {
+    fn skip_fixed_rows(&mut self, _element: &'a str, _count: u64, _stride: usize) -> Result<bool, MeshFileError> {
         Ok(false)
     }
 
@@ -871,10 +733,7 @@ impl<'a> BinaryReader<'a> {
     }
 
     fn advance(&mut self, bytes: u64) -> Result<(), MeshFileError> {
-        match usize::try_from(bytes)
-            .ok()
-            .and_then(|b| self.pos.checked_add(b))
-        {
+        match usize::try_from(bytes).ok().and_then(|b| self.pos.checked_add(b)) {
             Some(end) if end <= self.data.len() => {
                 self.pos = end;
                 Ok(())
@@ -904,12 +763,7 @@ impl<'a> Reader<'a> for BinaryReader<'a> {
         false
     }
 
-    fn start_row(
-        &mut self,
-        element: &'a str,
-        index: u64,
-        _count: u64,
-    ) -> Result<(), MeshFileError> {
+    fn start_row(&mut self, element: &'a str, index: u64, _count: u64) -> Result<(), MeshFileError> {
         self.element = element;
         self.index = index;
         Ok(())
@@ -934,18 +788,14 @@ impl<'a> Reader<'a> for BinaryReader<'a> {
 
     fn list_len(&mut self, ty: Scalar) -> Result<u64, MeshFileError> {
         match self.scalar(ty)? {
-            Num::Int(n) => {
-                u64::try_from(n).map_err(|_| self.error(format!("negative list length {n}")))
-            }
+            Num::Int(n) => u64::try_from(n).map_err(|_| self.error(format!("negative list length {n}"))),
             // Count types are checked to be integers in the header.
             Num::Float(f) => Err(self.error(format!("invalid list length {f}"))),
         }
     }
 
     fn skip_items(&mut self, n: u64, ty: Scalar) -> Result<(), MeshFileError> {
-        let bytes = n
-            .checked_mul(ty.size() as u64)
-            .ok_or_else(|| self.truncated())?;
+        let bytes = n.checked_mul(ty.size() as u64).ok_or_else(|| self.truncated())?;
         self.advance(bytes)
     }
 
@@ -953,12 +803,7 @@ impl<'a> Reader<'a> for BinaryReader<'a> {
         Ok(())
     }
 
-    fn skip_fixed_rows(
-        &mut self,
-        element: &'a str,
-        count: u64,
-        stride: usize,
-    ) -> Result<bool, MeshFileError> {
+    fn skip_fixed_rows(&mut self, element: &'a str, count: u64, stride: usize) -> Result<bool, MeshFileError> {
         let stride = stride as u64;
         let total = count.checked_mul(stride);
         match total.and_then(|t| usize::try_from(t).ok()) {
@@ -978,10 +823,7 @@ impl<'a> Reader<'a> for BinaryReader<'a> {
     fn error(&self, message: String) -> MeshFileError {
         MeshFileError::parse(
             self.name,
-            Location::Element {
-                element: self.element.to_owned(),
-                index: self.index,
-            },
+            Location::Element { element: self.element.to_owned(), index: self.index },
             message,
         )
     }

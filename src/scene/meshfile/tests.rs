@@ -51,26 +51,16 @@ fn obj_cube_with_quads() {
     // Fan triangulation of the first quad (1 4 3 2): (1 4 3) and (1 3 2).
     let p = |i: u32| mesh.positions[i as usize];
     let first: Vec<_> = mesh.indices[0].iter().map(|&i| p(i)).collect();
-    assert_eq!(
-        first,
-        vec![[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]]
-    );
+    assert_eq!(first, vec![[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]]);
     let second: Vec<_> = mesh.indices[1].iter().map(|&i| p(i)).collect();
-    assert_eq!(
-        second,
-        vec![[0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [1.0, 0.0, 0.0]]
-    );
+    assert_eq!(second, vec![[0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [1.0, 0.0, 0.0]]);
 }
 
 #[test]
 fn obj_crlf_comments_and_extra_columns() {
-    let text =
-        "v 0 0 0 1 0.5 0.5 0.5\r\nv 1 0 0 # trailing comment\r\n\r\n  v 0 1 0\r\nf 1 2 3#c\r\n";
+    let text = "v 0 0 0 1 0.5 0.5 0.5\r\nv 1 0 0 # trailing comment\r\n\r\n  v 0 1 0\r\nf 1 2 3#c\r\n";
     let mesh = obj(text).unwrap();
-    assert_eq!(
-        mesh.positions,
-        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
-    );
+    assert_eq!(mesh.positions, vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
     assert_eq!(mesh.indices, vec![[0, 1, 2]]);
 }
 
@@ -113,12 +103,7 @@ f 3/1/1 2/1/1 1/1/1
     assert_eq!(mesh.positions[0], mesh.positions[3]);
     assert_eq!(normals[0], [0.0, 0.0, 1.0]);
     assert_eq!(normals[3], [0.0, 0.0, -1.0]);
-    for (i, [a, b, c]) in mesh
-        .indices
-        .iter()
-        .map(|t| t.map(|i| i as usize))
-        .enumerate()
-    {
+    for (i, [a, b, c]) in mesh.indices.iter().map(|t| t.map(|i| i as usize)).enumerate() {
         let n = if i == 1 { -1.0 } else { 1.0 };
         assert!([a, b, c].iter().all(|&v| normals[v] == [0.0, 0.0, n]));
     }
@@ -134,10 +119,7 @@ fn obj_forms_and_partial_attributes() {
     let all_n = obj(&format!("{base}f 1//1 2//1 3//1\n")).unwrap();
     assert_eq!(all_n.normals, Some(vec![[0.0, 0.0, 1.0]; 3]));
     assert_eq!(all_n.uvs, None);
-    let mixed = obj(&format!(
-        "{base}f 1/1/1 2/2/1 3/3/1\nf 1 2 3\nf 3//1 2//1 1//1\n"
-    ))
-    .unwrap();
+    let mixed = obj(&format!("{base}f 1/1/1 2/2/1 3/3/1\nf 1 2 3\nf 3//1 2//1 1//1\n")).unwrap();
     assert_eq!(mixed.normals, None);
     assert_eq!(mixed.uvs, None);
     // With attributes dropped, corners that differed only in them share a vertex again.
@@ -155,88 +137,28 @@ fn obj_forms_and_partial_attributes() {
 fn obj_errors_name_the_line() {
     let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
     let cases: &[(String, &str)] = &[
-        (
-            format!("{tri}# comment\n\nf 1 2 40\n"),
-            "t.obj:6: face index 40 out of range (3 vertices)",
-        ),
-        (
-            format!("{tri}f 1 2 -4\n"),
-            "t.obj:4: face index -4 out of range (3 vertices)",
-        ),
-        (
-            format!("{tri}f 1 2 0\n"),
-            "t.obj:4: face index 0 is invalid (OBJ indices start at 1)",
-        ),
-        (
-            format!("{tri}f 1/1 2/1 3/1\n"),
-            "t.obj:4: texture coordinate index 1 out of range (0 texture coordinates)",
-        ),
-        (
-            format!("{tri}vn 0 0 1\nf 1//1 2//2 3//1\n"),
-            "t.obj:5: normal index 2 out of range (1 normal)",
-        ),
-        (
-            format!("{tri}f 1 2\n"),
-            "t.obj:4: face has 2 vertices (at least 3 needed)",
-        ),
-        (
-            format!("{tri}f\n"),
-            "t.obj:4: face has 0 vertices (at least 3 needed)",
-        ),
-        (
-            format!("{tri}f 1 2 3/1/1/1\n"),
-            "t.obj:4: invalid face vertex \"3/1/1/1\"",
-        ),
-        (
-            format!("{tri}f 1 2 /1\n"),
-            "t.obj:4: face vertex \"/1\" has no position index",
-        ),
-        (
-            format!("{tri}f 1 2 x\n"),
-            "t.obj:4: invalid face index \"x\"",
-        ),
-        (
-            format!("{tri}f 1 2 3/y\n"),
-            "t.obj:4: invalid texture coordinate index \"y\"",
-        ),
+        (format!("{tri}# comment\n\nf 1 2 40\n"), "t.obj:6: face index 40 out of range (3 vertices)"),
+        (format!("{tri}f 1 2 -4\n"), "t.obj:4: face index -4 out of range (3 vertices)"),
+        (format!("{tri}f 1 2 0\n"), "t.obj:4: face index 0 is invalid (OBJ indices start at 1)"),
+        (format!("{tri}f 1/1 2/1 3/1\n"), "t.obj:4: texture coordinate index 1 out of range (0 texture coordinates)"),
+        (format!("{tri}vn 0 0 1\nf 1//1 2//2 3//1\n"), "t.obj:5: normal index 2 out of range (1 normal)"),
+        (format!("{tri}f 1 2\n"), "t.obj:4: face has 2 vertices (at least 3 needed)"),
+        (format!("{tri}f\n"), "t.obj:4: face has 0 vertices (at least 3 needed)"),
+        (format!("{tri}f 1 2 3/1/1/1\n"), "t.obj:4: invalid face vertex \"3/1/1/1\""),
+        (format!("{tri}f 1 2 /1\n"), "t.obj:4: face vertex \"/1\" has no position index"),
+        (format!("{tri}f 1 2 x\n"), "t.obj:4: invalid face index \"x\""),
+        (format!("{tri}f 1 2 3/y\n"), "t.obj:4: invalid texture coordinate index \"y\""),
         ("v 0 0\n".into(), "t.obj:1: v needs 3 coordinates, found 2"),
-        (
-            "v 0 0 0\nvn 0 1\n".into(),
-            "t.obj:2: vn needs 3 coordinates, found 2",
-        ),
-        (
-            "vt\n".into(),
-            "t.obj:1: vt needs at least 1 coordinate, found 0",
-        ),
-        (
-            "v 0 0 0\nv 1 abc 0\n".into(),
-            "t.obj:2: invalid number \"abc\" in v statement",
-        ),
-        (
-            "v 0 0 0\nv 1 nan 0\n".into(),
-            "t.obj:2: non-finite number \"nan\" in v statement",
-        ),
-        (
-            "v 0 0 0\nv 1 0 -inf\n".into(),
-            "t.obj:2: non-finite number \"-inf\" in v statement",
-        ),
+        ("v 0 0 0\nvn 0 1\n".into(), "t.obj:2: vn needs 3 coordinates, found 2"),
+        ("vt\n".into(), "t.obj:1: vt needs at least 1 coordinate, found 0"),
+        ("v 0 0 0\nv 1 abc 0\n".into(), "t.obj:2: invalid number \"abc\" in v statement"),
+        ("v 0 0 0\nv 1 nan 0\n".into(), "t.obj:2: non-finite number \"nan\" in v statement"),
+        ("v 0 0 0\nv 1 0 -inf\n".into(), "t.obj:2: non-finite number \"-inf\" in v statement"),
         // Overflows f32.
-        (
-            "\n\nv 1e39 0 0\n".into(),
-            "t.obj:3: non-finite number \"1e39\" in v statement",
-        ),
-        (
-            "vt 0 inf\n".into(),
-            "t.obj:1: non-finite number \"inf\" in vt statement",
-        ),
-        (
-            "vn NaN 0 1\n".into(),
-            "t.obj:1: non-finite number \"NaN\" in vn statement",
-        ),
-        (
-            format!("{tri}o only-points\np 1\n"),
-            "t.obj: mesh has no triangles",
-        ),
+        ("\n\nv 1e39 0 0\n".into(), "t.obj:3: non-finite number \"1e39\" in v statement"),
+        ("vt 0 inf\n".into(), "t.obj:1: non-finite number \"inf\" in vt statement"),
+        ("vn NaN 0 1\n".into(), "t.obj:1: non-finite number \"NaN\" in vn statement"),
+        (format!("{tri}o only-points\np 1\n"), "t.obj: mesh has no triangles"),
         (String::new(), "t.obj: mesh has no triangles"),
     ];
     for (text, expected) in cases {
@@ -251,27 +173,15 @@ fn obj_triangle_limit() {
     // 12 triangles: fine at 12, rejected at 11 (on the face that crosses the limit).
     assert_eq!(parse_obj(CUBE, "c.obj", 12).unwrap().indices.len(), 12);
     let err = parse_obj(CUBE, "c.obj", 11).unwrap_err();
-    assert!(matches!(
-        err,
-        MeshFileError::TooManyTriangles { limit: 11, .. }
-    ));
-    assert_eq!(
-        err.to_string(),
-        "c.obj: mesh has more than 11 triangles (the triangle limit)"
-    );
-    assert!(matches!(
-        parse_obj(CUBE, "c.obj", 0),
-        Err(MeshFileError::TooManyTriangles { .. })
-    ));
+    assert!(matches!(err, MeshFileError::TooManyTriangles { limit: 11, .. }));
+    assert_eq!(err.to_string(), "c.obj: mesh has more than 11 triangles (the triangle limit)");
+    assert!(matches!(parse_obj(CUBE, "c.obj", 0), Err(MeshFileError::TooManyTriangles { .. })));
     // A single huge polygon is rejected before its corners are parsed.
     let mut big = String::from("v 0 0 0\nf");
     for _ in 0..10_000 {
         big.push_str(" 1");
     }
-    assert!(matches!(
-        parse_obj(&big, "big.obj", 100),
-        Err(MeshFileError::TooManyTriangles { .. })
-    ));
+    assert!(matches!(parse_obj(&big, "big.obj", 100), Err(MeshFileError::TooManyTriangles { .. })));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -342,8 +252,7 @@ fn build_ply(format: Fmt, elements: &str, rows: &[Vec<V>]) -> Vec<u8> {
         Fmt::Le => "binary_little_endian",
         Fmt::Be => "binary_big_endian",
     };
-    let mut out = format!("ply\nformat {name} 1.0\ncomment made by a test\n{elements}end_header\n")
-        .into_bytes();
+    let mut out = format!("ply\nformat {name} 1.0\ncomment made by a test\n{elements}end_header\n").into_bytes();
     for row in rows {
         match format {
             Fmt::Ascii => {
@@ -396,16 +305,9 @@ property uint16 b
 ";
 
 fn tetra_rows() -> Vec<Vec<V>> {
-    let mut rows = vec![
-        vec![V::U8(1), V::U8(2), V::I32(-5), V::I32(7), V::F64(0.5)],
-        vec![V::U8(3), V::U8(0), V::F64(2.0)],
-    ];
-    let positions = [
-        [0.0, 0.0, 0.0],
-        [1.0, 0.0, 0.0],
-        [0.0, 1.0, 0.0],
-        [0.0, 0.0, 1.5],
-    ];
+    let mut rows =
+        vec![vec![V::U8(1), V::U8(2), V::I32(-5), V::I32(7), V::F64(0.5)], vec![V::U8(3), V::U8(0), V::F64(2.0)]];
+    let positions = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.5]];
     for (i, p) in positions.iter().enumerate() {
         let f = i as f32;
         rows.push(vec![
@@ -426,10 +328,7 @@ fn tetra_rows() -> Vec<Vec<V>> {
     }
     rows.push(vec![V::I32(2), V::I32(0), V::I32(1), V::U8(1), V::F32(0.5)]);
     rows.push(vec![V::I32(0), V::U8(0)]);
-    for (i, face) in [[0u32, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]
-        .iter()
-        .enumerate()
-    {
+    for (i, face) in [[0u32, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]].iter().enumerate() {
         let mut row = vec![V::U8(i as u8), V::U8(3)];
         row.extend(face.iter().map(|&v| V::U32(v)));
         row.extend([V::I8(2), V::U16(9), V::U16(65535), V::I16(-7)]);
@@ -463,37 +362,10 @@ fn ply_ascii_and_binary_tetrahedra_agree() {
     let be = ply(&tetra(Fmt::Be)).unwrap();
     assert_eq!(ascii, le);
     assert_eq!(ascii, be);
-    assert_eq!(
-        ascii.positions,
-        vec![
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0],
-            [0.0, 0.0, 1.5]
-        ]
-    );
-    assert_eq!(
-        ascii.indices,
-        vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]
-    );
-    assert_eq!(
-        ascii.normals,
-        Some(vec![
-            [0.0, -0.5, 1.0],
-            [0.25, -0.5, 1.0],
-            [0.5, -0.5, 1.0],
-            [0.75, -0.5, 1.0]
-        ])
-    );
-    assert_eq!(
-        ascii.uvs,
-        Some(vec![
-            [0.0, 1.0],
-            [0.125, 0.875],
-            [0.25, 0.75],
-            [0.375, 0.625]
-        ])
-    );
+    assert_eq!(ascii.positions, vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.5]]);
+    assert_eq!(ascii.indices, vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]);
+    assert_eq!(ascii.normals, Some(vec![[0.0, -0.5, 1.0], [0.25, -0.5, 1.0], [0.5, -0.5, 1.0], [0.75, -0.5, 1.0]]));
+    assert_eq!(ascii.uvs, Some(vec![[0.0, 1.0], [0.125, 0.875], [0.25, 0.75], [0.375, 0.625]]));
 }
 
 #[test]
@@ -541,76 +413,34 @@ fn ply_body_errors() {
     // Ascii body errors name the line (header: 10 lines, body starts at line 11).
     let a = |rows: Vec<Vec<V>>| build_ply(Fmt::Ascii, TRI_HEADER, &rows);
     let b = |rows: Vec<Vec<V>>| build_ply(Fmt::Le, TRI_HEADER, &rows);
-    assert_eq!(
-        ply_err(&a(tri_rows(tri_face(&[0, 1, 3])))),
-        "t.ply:14: vertex index 3 out of range (3 vertices)"
-    );
-    assert_eq!(
-        ply_err(&a(tri_rows(tri_face(&[0, -1, 2])))),
-        "t.ply:14: vertex index -1 out of range (3 vertices)"
-    );
-    assert_eq!(
-        ply_err(&a(tri_rows(tri_face(&[0, 1])))),
-        "t.ply:14: face has 2 vertices (at least 3 needed)"
-    );
-    assert_eq!(
-        ply_err(&b(tri_rows(tri_face(&[0, 1, 3])))),
-        "t.ply: face #0: vertex index 3 out of range (3 vertices)"
-    );
-    assert_eq!(
-        ply_err(&b(tri_rows(tri_face(&[2])))),
-        "t.ply: face #0: face has 1 vertex (at least 3 needed)"
-    );
+    assert_eq!(ply_err(&a(tri_rows(tri_face(&[0, 1, 3])))), "t.ply:14: vertex index 3 out of range (3 vertices)");
+    assert_eq!(ply_err(&a(tri_rows(tri_face(&[0, -1, 2])))), "t.ply:14: vertex index -1 out of range (3 vertices)");
+    assert_eq!(ply_err(&a(tri_rows(tri_face(&[0, 1])))), "t.ply:14: face has 2 vertices (at least 3 needed)");
+    assert_eq!(ply_err(&b(tri_rows(tri_face(&[0, 1, 3])))), "t.ply: face #0: vertex index 3 out of range (3 vertices)");
+    assert_eq!(ply_err(&b(tri_rows(tri_face(&[2])))), "t.ply: face #0: face has 1 vertex (at least 3 needed)");
     let mut nan_rows = tri_rows(tri_face(&[0, 1, 2]));
     nan_rows[1][1] = V::F32(f32::NAN);
-    assert_eq!(
-        ply_err(&a(nan_rows.clone())),
-        "t.ply:12: non-finite y coordinate (y NaN)"
-    );
-    assert_eq!(
-        ply_err(&b(nan_rows)),
-        "t.ply: vertex #1: non-finite y coordinate (y NaN)"
-    );
+    assert_eq!(ply_err(&a(nan_rows.clone())), "t.ply:12: non-finite y coordinate (y NaN)");
+    assert_eq!(ply_err(&b(nan_rows)), "t.ply: vertex #1: non-finite y coordinate (y NaN)");
     let mut inf_rows = tri_rows(tri_face(&[0, 1, 2]));
     inf_rows[2][2] = V::F32(f32::INFINITY);
-    assert_eq!(
-        ply_err(&b(inf_rows)),
-        "t.ply: vertex #2: non-finite z coordinate (z inf)"
-    );
+    assert_eq!(ply_err(&b(inf_rows)), "t.ply: vertex #2: non-finite z coordinate (z inf)");
     // Doubles beyond the f32 range are non-finite too.
     let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1e300 0 0\n0 1 0\n3 0 1 2\n";
-    assert_eq!(
-        ply_err(text.as_bytes()),
-        "t.ply:11: non-finite x coordinate (x inf)"
-    );
+    assert_eq!(ply_err(text.as_bytes()), "t.ply:11: non-finite x coordinate (x inf)");
 
     let good = a(tri_rows(tri_face(&[0, 1, 2])));
     let good_text = String::from_utf8(good).unwrap();
     let edit = |from: &str, to: &str| ply_err(good_text.replacen(from, to, 1).as_bytes());
-    assert_eq!(
-        edit("\n1 0 0\n", "\n1 0\n"),
-        "t.ply:12: too few values on the line"
-    );
+    assert_eq!(edit("\n1 0 0\n", "\n1 0\n"), "t.ply:12: too few values on the line");
     assert_eq!(
         edit("\n1 0 0\n", "\n1 0 0 7\n"),
         "t.ply:12: unexpected extra value \"7\" at the end of the line (the header declares fewer properties)"
     );
-    assert_eq!(
-        edit("\n1 0 0\n", "\n1 zero 0\n"),
-        "t.ply:12: invalid float value \"zero\""
-    );
-    assert_eq!(
-        edit("3 0 1 2\n", "300 0 1 2\n"),
-        "t.ply:14: list length \"300\" out of range for type uchar"
-    );
-    assert_eq!(
-        edit("3 0 1 2\n", "3 0 1 2.5\n"),
-        "t.ply:14: invalid value \"2.5\" (expected int)"
-    );
-    assert_eq!(
-        edit("3 0 1 2\n", ""),
-        "t.ply:14: unexpected end of file: 1 face instances declared, found 0"
-    );
+    assert_eq!(edit("\n1 0 0\n", "\n1 zero 0\n"), "t.ply:12: invalid float value \"zero\"");
+    assert_eq!(edit("3 0 1 2\n", "300 0 1 2\n"), "t.ply:14: list length \"300\" out of range for type uchar");
+    assert_eq!(edit("3 0 1 2\n", "3 0 1 2.5\n"), "t.ply:14: invalid value \"2.5\" (expected int)");
+    assert_eq!(edit("3 0 1 2\n", ""), "t.ply:14: unexpected end of file: 1 face instances declared, found 0");
     // Integers written as floats are accepted.
     assert!(ply(good_text.replacen("3 0 1 2", "3.0 0 1.0 2", 1).as_bytes()).is_ok());
 }
@@ -674,10 +504,7 @@ fn ply_header_errors() {
     for (header, expected) in cases {
         assert_eq!(&header_err(header), expected, "for {header:?}");
     }
-    assert_eq!(
-        ply_err(b""),
-        "t.ply: header: empty file (expected a PLY header)"
-    );
+    assert_eq!(ply_err(b""), "t.ply: header: empty file (expected a PLY header)");
     assert_eq!(
         ply_err(b"ply\nformat ascii 1.0\nelement vertex 3\n"),
         "t.ply: header: missing end_header (the file ends inside the header)"
@@ -692,14 +519,8 @@ fn ply_list_and_count_errors() {
     let header = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list char int vertex_indices\n";
     let mut rows = tri_rows(vec![]);
     rows[3] = vec![V::I8(-3), V::I32(0), V::I32(1), V::I32(2)];
-    assert_eq!(
-        ply_err(&build_ply(Fmt::Be, header, &rows)),
-        "t.ply: face #0: negative list length -3"
-    );
-    assert_eq!(
-        ply_err(&build_ply(Fmt::Ascii, header, &rows)),
-        "t.ply:14: negative list length -3"
-    );
+    assert_eq!(ply_err(&build_ply(Fmt::Be, header, &rows)), "t.ply: face #0: negative list length -3");
+    assert_eq!(ply_err(&build_ply(Fmt::Ascii, header, &rows)), "t.ply:14: negative list length -3");
     // A huge list in an unknown element: truncation, not a long loop or allocation.
     let header = "element blob 1\nproperty list uint uchar data\n".to_owned() + TRI_HEADER;
     let mut rows = vec![vec![V::U32(u32::MAX), V::U8(0)]];
@@ -708,10 +529,7 @@ fn ply_list_and_count_errors() {
         ply_err(&build_ply(Fmt::Le, &header, &rows)),
         "t.ply: blob #0: unexpected end of data (the file is truncated)"
     );
-    assert_eq!(
-        ply_err(&build_ply(Fmt::Ascii, &header, &rows)),
-        "t.ply:13: too few values on the line"
-    );
+    assert_eq!(ply_err(&build_ply(Fmt::Ascii, &header, &rows)), "t.ply:13: too few values on the line");
 }
 
 #[test]
@@ -721,26 +539,19 @@ fn ply_huge_header_counts_do_not_allocate() {
     let vertex = "element vertex 4000000000\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n";
     for fmt in [Fmt::Ascii, Fmt::Le, Fmt::Be] {
         let bytes = build_ply(fmt, vertex, &tri_rows(tri_face(&[0, 1, 2]))[..3]);
-        let err = parse_ply(&bytes, "t.ply", u64::MAX)
-            .unwrap_err()
-            .to_string();
+        let err = parse_ply(&bytes, "t.ply", u64::MAX).unwrap_err().to_string();
         assert!(err.contains("end of"), "{err}");
     }
     let face = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 4000000000\nproperty list uchar int vertex_indices\n";
     for fmt in [Fmt::Ascii, Fmt::Le] {
         let bytes = build_ply(fmt, face, &tri_rows(tri_face(&[0, 1, 2])));
-        let err = parse_ply(&bytes, "t.ply", u64::MAX)
-            .unwrap_err()
-            .to_string();
+        let err = parse_ply(&bytes, "t.ply", u64::MAX).unwrap_err().to_string();
         assert!(err.contains("face #1") || err.contains("t.ply:15"), "{err}");
     }
     // Unknown elements of fixed-size rows, or with no properties at all.
     let skipped = "element huge 18446744073709551615\nproperty double d\n".to_owned() + TRI_HEADER;
     let bytes = build_ply(Fmt::Le, &skipped, &tri_rows(tri_face(&[0, 1, 2])));
-    assert_eq!(
-        ply_err(&bytes),
-        "t.ply: huge #6: unexpected end of data (the file is truncated)"
-    );
+    assert_eq!(ply_err(&bytes), "t.ply: huge #6: unexpected end of data (the file is truncated)");
     let empty = "element nothing 18446744073709551615\n".to_owned() + TRI_HEADER;
     for fmt in [Fmt::Ascii, Fmt::Le] {
         let bytes = build_ply(fmt, &empty, &tri_rows(tri_face(&[0, 1, 2])));
@@ -753,16 +564,9 @@ fn ply_triangle_limit() {
     // Rejected from the header's face count, before reading the body.
     let bytes = tetra(Fmt::Le);
     assert_eq!(parse_ply(&bytes, "t.ply", 4).unwrap().indices.len(), 4);
-    let body_start = bytes
-        .windows(11)
-        .position(|w| w == b"end_header\n")
-        .unwrap()
-        + 11;
+    let body_start = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
     let err = parse_ply(&bytes[..body_start], "t.ply", 3).unwrap_err();
-    assert_eq!(
-        err.to_string(),
-        "t.ply: mesh has more than 3 triangles (the triangle limit)"
-    );
+    assert_eq!(err.to_string(), "t.ply: mesh has more than 3 triangles (the triangle limit)");
     // Polygons count by their triangles while reading.
     let mut rows = tri_rows(vec![]);
     rows.push(vec![V::F32(1.0), V::F32(1.0), V::F32(0.0)]);
@@ -770,14 +574,8 @@ fn ply_triangle_limit() {
     rows[4] = tri_face(&[0, 1, 3, 2]);
     let header = TRI_HEADER.replace("vertex 3", "vertex 4");
     let quad = build_ply(Fmt::Ascii, &header, &rows);
-    assert_eq!(
-        parse_ply(&quad, "q.ply", 2).unwrap().indices,
-        vec![[0, 1, 3], [0, 3, 2]]
-    );
-    assert!(matches!(
-        parse_ply(&quad, "q.ply", 1),
-        Err(MeshFileError::TooManyTriangles { limit: 1, .. })
-    ));
+    assert_eq!(parse_ply(&quad, "q.ply", 2).unwrap().indices, vec![[0, 1, 3], [0, 3, 2]]);
+    assert!(matches!(parse_ply(&quad, "q.ply", 1), Err(MeshFileError::TooManyTriangles { limit: 1, .. })));
 }
 
 #[test]
@@ -789,10 +587,7 @@ fn load_mesh_dispatches_on_extension() {
     assert_eq!(load_mesh(&obj_path, MAX).unwrap().indices.len(), 12);
     let ply_path = dir.join("tetra.Ply");
     std::fs::write(&ply_path, tetra(Fmt::Be)).unwrap();
-    assert_eq!(
-        load_mesh(&ply_path, MAX).unwrap(),
-        ply(&tetra(Fmt::Ascii)).unwrap()
-    );
+    assert_eq!(load_mesh(&ply_path, MAX).unwrap(), ply(&tetra(Fmt::Ascii)).unwrap());
     // Latin-1 in an object name is not an error.
     let latin1_path = dir.join("latin1.obj");
     let mut latin1 = b"o W\xfcrfel\n".to_vec();
@@ -802,24 +597,14 @@ fn load_mesh_dispatches_on_extension() {
     // Errors name the file.
     let err = load_mesh(&dir.join("cube.obj"), MAX).unwrap_err();
     assert!(matches!(err, MeshFileError::Io { .. }));
-    assert!(err
-        .to_string()
-        .starts_with(&format!("{}: ", dir.join("cube.obj").display())));
+    assert!(err.to_string().starts_with(&format!("{}: ", dir.join("cube.obj").display())));
     let err = load_mesh(&obj_path, 5).unwrap_err();
-    assert_eq!(
-        err.to_string(),
-        format!(
-            "{}: mesh has more than 5 triangles (the triangle limit)",
-            obj_path.display()
-        )
-    );
+    assert_eq!(err.to_string(), format!("{}: mesh has more than 5 triangles (the triangle limit)", obj_path.display()));
     for unsupported in ["mesh.stl", "mesh", "obj", "mesh.obj.gz"] {
         let err = load_mesh(Path::new(unsupported), MAX).unwrap_err();
         assert_eq!(
             err.to_string(),
-            format!(
-                "{unsupported}: unsupported mesh file type (expected a .obj or .ply extension)"
-            )
+            format!("{unsupported}: unsupported mesh file type (expected a .obj or .ply extension)")
         );
     }
     std::fs::remove_dir_all(&dir).unwrap();
@@ -842,7 +627,8 @@ fn random_mutations_never_panic() {
         (true, CUBE.as_bytes().to_vec()),
         (
             true,
-            b"v 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 1\nvn 0 0 1\nf 1/1/1 2/2/1 3/2/1\nf -3//-1 -2//-1 -1//-1\n".to_vec(),
+            b"v 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 1\nvn 0 0 1\nf 1/1/1 2/2/1 3/2/1\nf -3//-1 -2//-1 -1//-1\n"
+                .to_vec(),
         ),
     ];
     // Bytes likely to matter: digits, separators, signs, keywords' letters, newlines, 0xff.
@@ -854,16 +640,9 @@ fn random_mutations_never_panic() {
         let mutations = 1 + next() % 4;
         for _ in 0..mutations {
             let r = next();
-            let at = if data.is_empty() {
-                0
-            } else {
-                (r >> 8) as usize % data.len()
-            };
-            let byte = if r & 0x10 == 0 {
-                INTERESTING[(r >> 40) as usize % INTERESTING.len()]
-            } else {
-                (r >> 32) as u8
-            };
+            let at = if data.is_empty() { 0 } else { (r >> 8) as usize % data.len() };
+            let byte =
+                if r & 0x10 == 0 { INTERESTING[(r >> 40) as usize % INTERESTING.len()] } else { (r >> 32) as u8 };
             match r % 5 {
                 0 if !data.is_empty() => data[at] = byte,
                 1 => data.insert(at, byte),
