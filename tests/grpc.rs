@@ -404,3 +404,29 @@ async fn render_remote_reports_status_errors() {
     let err = wedge::client::render_remote(&addr, cornell(8, 6, 1, 1), |_, _| {}).await.expect_err("no server");
     assert!(format!("{err:#}").contains(&addr), "{err:#}");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn renders_past_the_shutdown_grace_period_are_cancelled() {
+    let config = ServerConfig { shutdown_grace: Duration::from_millis(200), ..Default::default() };
+    let mut server = TestServer::with_config(config).await;
+    let mut client = server.client().await;
+    let mut stream = client.render(long_render(3)).await.expect("render starts").into_inner();
+    within(60, "first frame", next_frame_complete(&mut stream)).await;
+    server.begin_shutdown();
+    // The render would run for minutes; the grace period ends it with UNAVAILABLE.
+    let status = within(30, "stream end", async {
+        loop {
+            match stream.message().await {
+                Ok(Some(_)) => continue,
+                Ok(None) => panic!("the stream ended without a status"),
+                Err(s) => return s,
+            }
+        }
+    })
+    .await;
+    assert_eq!(status.code(), Code::Unavailable, "{status:?}");
+    assert!(status.message().contains("shutting down"), "{}", status.message());
+    let state = std::sync::Arc::clone(&server.state);
+    server.stop(Duration::from_secs(10)).await.expect("server stops cleanly");
+    assert_eq!(state.active_renders(), 0);
+}

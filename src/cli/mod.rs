@@ -60,6 +60,9 @@ pub struct ServeArgs {
     /// Largest streamed chunk in bytes (clients' default receive limit is 4 MiB).
     #[arg(long, default_value_t = 1 << 20)]
     pub max_chunk_bytes: usize,
+    /// Seconds in-flight renders may run on after SIGINT/SIGTERM before they are cancelled.
+    #[arg(long, default_value_t = 10.0)]
+    pub shutdown_grace: f64,
 }
 
 /// What to render and how: shared by `render` and `client`.

@@ -16,6 +16,8 @@ pub fn run(a: ServeArgs) -> anyhow::Result<()> {
         },
         max_concurrent_renders: a.max_concurrent.max(1),
         max_chunk_bytes: a.max_chunk_bytes,
+        shutdown_grace: std::time::Duration::try_from_secs_f64(a.shutdown_grace.max(0.0))
+            .map_err(|e| anyhow::anyhow!("--shutdown-grace {}: {e}", a.shutdown_grace))?,
     };
     let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     runtime.block_on(serve(config, shutdown_signal()))

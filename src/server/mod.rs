@@ -29,6 +29,9 @@ pub struct ServerConfig {
     pub max_concurrent_renders: usize,
     /// Cap on the pixel bytes of one streamed chunk (at least one row is always sent).
     pub max_chunk_bytes: usize,
+    /// After a shutdown signal, how long in-flight renders may run on before they are
+    /// cancelled (their clients get UNAVAILABLE).
+    pub shutdown_grace: Duration,
 }
 
 impl Default for ServerConfig {
@@ -38,6 +41,7 @@ impl Default for ServerConfig {
             limits: crate::job::Limits::default(),
             max_concurrent_renders: 2,
             max_chunk_bytes: DEFAULT_MAX_CHUNK_BYTES,
+            shutdown_grace: Duration::from_secs(10),
         }
     }
 }
@@ -60,6 +64,7 @@ pub async fn serve_on(
     shutdown: impl Future<Output = ()>,
 ) -> anyhow::Result<()> {
     let local = listener.local_addr().context("listener has no address")?;
+    let drain_state = Arc::clone(&state);
     let service = {
         let config = config.clone();
         tokio::task::spawn_blocking(move || RenderService::new(&config, state))
@@ -75,11 +80,24 @@ pub async fn serve_on(
         .build_v1()
         .context("building the reflection service")?;
 
+    let grace = config.shutdown_grace;
     let signal = async move {
         shutdown.await;
-        tracing::info!("shutting down: refusing new calls, finishing in-flight renders");
+        tracing::info!(
+            grace_seconds = grace.as_secs_f64(),
+            "shutting down: refusing new calls, finishing in-flight renders"
+        );
         health.set_not_serving::<RendererServer<RenderService>>().await;
         health.set_service_status("", ServingStatus::NotServing).await;
+        // Renders still running when the grace period ends are cancelled, so shutdown never
+        // waits for a long time budget.
+        tokio::spawn(async move {
+            tokio::time::sleep(grace).await;
+            if drain_state.active_renders() > 0 {
+                tracing::warn!(renders = drain_state.active_renders(), "grace period over: cancelling renders");
+            }
+            drain_state.begin_drain();
+        });
     };
     let incoming = TcpIncoming::from(listener).with_nodelay(Some(true)).with_keepalive(Some(Duration::from_secs(60)));
 

@@ -170,17 +170,26 @@ impl Renderer for RenderService {
             })
         });
 
-        // Supervisor: stops the render when the client goes away, reports a failed render
-        // task, and holds the last sender so the stream ends only after that.
+        // Supervisor: stops the render when the client goes away or the server's shutdown
+        // grace period ends, reports a failed render task, and holds the last sender so the
+        // stream ends only after that.
+        let state = Arc::clone(&self.state);
         tokio::spawn(async move {
+            let mut drained = false;
             let outcome = tokio::select! {
                 r = &mut handle => r,
                 () = tx.closed() => {
                     cancel.cancel();
                     handle.await
                 }
+                () = state.drained() => {
+                    drained = true;
+                    cancel.cancel();
+                    handle.await
+                }
             };
             let status = match outcome {
+                Ok(_) if drained => Some(Status::unavailable("the server is shutting down")),
                 Ok(status) => status,
                 Err(e) => {
                     warn!(render = id, "render task failed: {e}");

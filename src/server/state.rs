@@ -10,6 +10,9 @@ pub struct ServerState {
     renders_finished: AtomicU64,
     renders_cancelled: AtomicU64,
     renders_failed: AtomicU64,
+    /// Set when the shutdown grace period is over: running renders must stop.
+    draining: std::sync::atomic::AtomicBool,
+    drain: tokio::sync::Notify,
 }
 
 /// How a render task ended.
@@ -48,6 +51,21 @@ impl ServerState {
 
     pub fn renders_failed(&self) -> u64 {
         self.renders_failed.load(Ordering::SeqCst)
+    }
+
+    /// Tells every running render to stop (the shutdown grace period is over).
+    pub fn begin_drain(&self) {
+        self.draining.store(true, Ordering::SeqCst);
+        self.drain.notify_waiters();
+    }
+
+    /// Resolves once `begin_drain` has been called (at once if it already was).
+    pub async fn drained(&self) {
+        let notified = self.drain.notified();
+        if self.draining.load(Ordering::SeqCst) {
+            return;
+        }
+        notified.await;
     }
 
     /// Counts a render as started and active until the returned guard is dropped.
