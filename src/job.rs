@@ -82,7 +82,15 @@ pub fn prepare(
     let compiled = compile(&scene, &scene_limits, base_dir)?;
     let cam = scene.camera.as_ref().map(camera_info).unwrap_or_default();
     Ok(PreparedJob {
-        job: RenderJob { scene: Arc::new(compiled), method, halt, seed: req.seed, bounces, initial_spp },
+        job: RenderJob {
+            scene: Arc::new(compiled),
+            method,
+            halt,
+            seed: req.seed,
+            bounces,
+            initial_spp,
+            aaf: Default::default(),
+        },
         info: RenderInfo {
             scene: scene_label.to_string(),
             method: method.name().to_string(),
@@ -165,6 +173,9 @@ fn merge_settings(scene: Option<&proto::RenderSettings>, req: Option<&proto::Ren
 pub fn method_to_proto(m: Method) -> proto::Method {
     match m {
         Method::Uniform => proto::Method::Uniform,
+        Method::Aaf => proto::Method::Aaf,
+        Method::Adaptive => proto::Method::Adaptive,
+        Method::UniformFiltered => proto::Method::UniformFiltered,
     }
 }
 
@@ -173,6 +184,9 @@ pub fn method_from_proto(m: proto::Method) -> Option<Method> {
     match m {
         proto::Method::Unspecified => None,
         proto::Method::Uniform => Some(Method::Uniform),
+        proto::Method::Aaf => Some(Method::Aaf),
+        proto::Method::Adaptive => Some(Method::Adaptive),
+        proto::Method::UniformFiltered => Some(Method::UniformFiltered),
     }
 }
 

@@ -14,15 +14,34 @@ pub struct PathResult {
     pub rays: u32,
 }
 
+/// Which lights a direct-light estimate covers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DirectLights {
+    All,
+    /// Leave out rectangular area lights (their direct light is estimated elsewhere, e.g. by
+    /// AAF); their sample dimensions are still drawn, so the other numbers do not move.
+    SkipRect,
+}
+
 /// Direct light at `s` towards `wo`: one sample of every light, each with its own stratified
 /// dimension pair. Returns the radiance and the number of shadow rays.
 pub fn direct_light(scene: &Scene, s: &Surface, wo: Vec3, sampler: &mut PixelSampler) -> (Vec3, u32) {
+    direct_light_of(scene, s, wo, sampler, DirectLights::All)
+}
+
+pub fn direct_light_of(
+    scene: &Scene,
+    s: &Surface,
+    wo: Vec3,
+    sampler: &mut PixelSampler,
+    which: DirectLights,
+) -> (Vec3, u32) {
     let brdf = scene.materials[s.material as usize].brdf(s.uv);
     let mut sum = Vec3::ZERO;
     let mut rays = 0;
     for light in &scene.lights {
         let u = sampler.next_2d();
-        if brdf.is_black() {
+        if brdf.is_black() || (which == DirectLights::SkipRect && matches!(light, Light::Rect(_))) {
             continue;
         }
         let sample = match light {
@@ -60,15 +79,33 @@ pub fn emitted(scene: &Scene, s: &Surface, wo: Vec3) -> Vec3 {
 
 /// Traces one camera path with up to `bounces` indirect bounces.
 pub fn trace_path(scene: &Scene, origin: Vec3, dir: Vec3, bounces: u32, sampler: &mut PixelSampler) -> PathResult {
-    let mut rays = 1;
-    let Some(mut s) = scene.intersect(origin, dir, 0.0) else {
-        return PathResult { radiance: Vec3::ZERO, rays };
+    let Some(s) = scene.intersect(origin, dir, 0.0) else {
+        return PathResult { radiance: Vec3::ZERO, rays: 1 };
     };
-    let mut wo = -dir;
+    let mut r = radiance_from(scene, s, -dir, bounces, sampler, DirectLights::All);
+    r.rays += 1;
+    r
+}
+
+/// Radiance leaving the first hit `first` towards `wo` (emission, direct light of the lights
+/// `first_direct` selects, then up to `bounces` indirect bounces with all lights). Rays counted
+/// exclude the camera ray that found `first`.
+pub fn radiance_from(
+    scene: &Scene,
+    first: Surface,
+    wo: Vec3,
+    bounces: u32,
+    sampler: &mut PixelSampler,
+    first_direct: DirectLights,
+) -> PathResult {
+    let mut rays = 0;
+    let mut s = first;
+    let mut wo = wo;
     let mut radiance = emitted(scene, &s, wo);
     let mut throughput = Vec3::ONE;
     for depth in 0..=bounces {
-        let (direct, shadow_rays) = direct_light(scene, &s, wo, sampler);
+        let which = if depth == 0 { first_direct } else { DirectLights::All };
+        let (direct, shadow_rays) = direct_light_of(scene, &s, wo, sampler, which);
         rays += shadow_rays;
         radiance += throughput * direct;
         if depth == bounces {

@@ -4,6 +4,7 @@
 //! `material`, `light`, `scene` (the compiled scene), `integrator` (radiance along a path),
 //! `film` (per-pixel estimates), `strategy` (what a pass does) with its implementations
 //! (`uniform`), and `progressive` (the pass loop and halt conditions).
+pub mod aaf;
 pub mod camera;
 pub mod film;
 pub mod frame;

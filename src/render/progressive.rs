@@ -37,20 +37,30 @@ pub struct Halt {
 pub enum Method {
     /// Plain Monte Carlo, unfiltered: the baseline.
     Uniform,
+    /// Axis-aligned filtering of area-light soft shadows (Mehta et al. 2012).
+    Aaf,
+    /// AAF's adaptive sample counts without its filter.
+    Adaptive,
+    /// The same samples everywhere with a fixed-width filter.
+    UniformFiltered,
 }
 
 impl Method {
-    pub const ALL: &'static [Method] = &[Method::Uniform];
+    pub const ALL: &'static [Method] = &[Method::Uniform, Method::Aaf, Method::Adaptive, Method::UniformFiltered];
     pub fn name(self) -> &'static str {
         match self {
             Method::Uniform => "uniform",
+            Method::Aaf => "aaf",
+            Method::Adaptive => "adaptive",
+            Method::UniformFiltered => "uniform-filtered",
         }
     }
     /// Whether frames of this method are filtered (then they carry unfiltered colour and
     /// filter widths of their own).
     pub fn filters(self) -> bool {
         match self {
-            Method::Uniform => false,
+            Method::Uniform | Method::Adaptive => false,
+            Method::Aaf | Method::UniformFiltered => true,
         }
     }
 
@@ -69,6 +79,8 @@ pub struct RenderJob {
     pub bounces: u32,
     /// Samples per pixel of the first uniform pass.
     pub initial_spp: u32,
+    /// Parameters of the AAF family of methods.
+    pub aaf: crate::render::aaf::AafOptions,
 }
 
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

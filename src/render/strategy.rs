@@ -1,5 +1,7 @@
 //! The per-pass sampling-and-filtering strategy interface, and the stop check every pass obeys.
+use super::aaf::{ShadowMode, ShadowStrategy};
 use super::frame::Frame;
+use super::light::Light;
 use super::progressive::{CancelToken, Method, RenderError, RenderJob};
 use super::scene::Scene;
 use super::uniform::Uniform;
@@ -43,8 +45,21 @@ pub trait Strategy: Send {
     fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError>;
 }
 
+/// The strategy of `job.method`. The shadow methods work on rectangular area lights; a scene
+/// without any has nothing for them to filter, and renders as `uniform`.
 pub fn make_strategy(job: &RenderJob) -> Box<dyn Strategy> {
+    let has_area_light = job.scene.lights.iter().any(|l| matches!(l, Light::Rect(_)));
+    let shadow = |mode| -> Box<dyn Strategy> {
+        if has_area_light {
+            Box::new(ShadowStrategy::new(job, mode))
+        } else {
+            Box::new(Uniform::new(job))
+        }
+    };
     match job.method {
         Method::Uniform => Box::new(Uniform::new(job)),
+        Method::Aaf => shadow(ShadowMode::Aaf),
+        Method::Adaptive => shadow(ShadowMode::Adaptive),
+        Method::UniformFiltered => shadow(ShadowMode::UniformFiltered),
     }
 }

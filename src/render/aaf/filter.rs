@@ -1,0 +1,245 @@
+//! The screen-space filter of AAF (Mehta et al. 2012, Eqs. 10-12 and Sec. 6): a Gaussian
+//! gather per pixel with the centre pixel's width beta, over world distances measured in the
+//! light's plane (Eq. 12: motion along the light normal is excluded), separable into a
+//! horizontal and a vertical 1-D pass. Neighbours whose normal differs too much (or, as an
+//! option, whose object differs) are left out; the centre always counts with weight 1, so the
+//! weights never sum to zero (methods.md §0.2).
+use glam::{DVec2, Vec3};
+
+/// One pixel as the filter sees it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilterPixel {
+    /// Position in the light plane's 2-D coordinates.
+    pub plane: DVec2,
+    pub normal: Vec3,
+    pub object: u32,
+    /// Whether this pixel has a value to contribute (a valid hit that receives this light).
+    pub valid: bool,
+    /// Filter width (std. dev., world units) when this pixel is a filtered centre; 0: kept.
+    pub beta: f64,
+    /// Projected pixel size, world units (sets the kernel radius in pixels).
+    pub d: f64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilterOptions {
+    /// Neighbours whose normal is more than this angle from the centre's are left out (the
+    /// paper's "check on normal variation"; 20 degrees as in the authors' code).
+    pub max_normal_angle_deg: f32,
+    /// Leave out neighbours of another object (optional in the paper, Sec. 6 footnote 7).
+    pub object_id_check: bool,
+    /// Kernel radius cap in pixels (the radius is ceil(3 beta / d) otherwise).
+    pub max_radius: u32,
+}
+
+impl Default for FilterOptions {
+    fn default() -> Self {
+        FilterOptions { max_normal_angle_deg: 20.0, object_id_check: false, max_radius: 32 }
+    }
+}
+
+fn radius(p: &FilterPixel, o: &FilterOptions) -> i64 {
+    if !(p.beta > 0.0 && p.d > 0.0) {
+        return 0;
+    }
+    ((3.0 * p.beta / p.d).ceil() as i64).clamp(1, o.max_radius as i64)
+}
+
+/// Weight of neighbour `j` for centre `c` (Eq. 11, unnormalised; the gather normalises).
+#[inline]
+fn weight(c: &FilterPixel, j: &FilterPixel, cos_min: f32, o: &FilterOptions) -> f64 {
+    if !j.valid || c.normal.dot(j.normal) < cos_min || (o.object_id_check && c.object != j.object) {
+        return 0.0;
+    }
+    let d2 = (c.plane - j.plane).length_squared();
+    (-d2 / (2.0 * c.beta * c.beta)).exp()
+}
+
+/// Filters `values` (row-major, `width` wide) in place with the separable filter. Pixels with
+/// beta = 0 or invalid keep their values (they still feed their neighbours if valid).
+pub fn separable(pixels: &[FilterPixel], values: &mut [[f64; 3]], width: usize, o: &FilterOptions) {
+    let height = pixels.len().checked_div(width).unwrap_or(0);
+    let cos_min = o.max_normal_angle_deg.to_radians().cos();
+    let pass = |src: &[[f64; 3]], dx: i64, dy: i64| -> Vec<[f64; 3]> {
+        let mut out = src.to_vec();
+        for y in 0..height as i64 {
+            for x in 0..width as i64 {
+                let i = (y * width as i64 + x) as usize;
+                let c = &pixels[i];
+                let r = radius(c, o);
+                if r == 0 || !c.valid {
+                    continue;
+                }
+                let (mut sum, mut wsum) = (src[i], 1.0);
+                for k in (-r..=r).filter(|&k| k != 0) {
+                    let (nx, ny) = (x + k * dx, y + k * dy);
+                    if nx < 0 || ny < 0 || nx >= width as i64 || ny >= height as i64 {
+                        continue;
+                    }
+                    let j = (ny * width as i64 + nx) as usize;
+                    let w = weight(c, &pixels[j], cos_min, o);
+                    if w > 0.0 {
+                        for ch in 0..3 {
+                            sum[ch] += w * src[j][ch];
+                        }
+                        wsum += w;
+                    }
+                }
+                out[i] = sum.map(|s| s / wsum);
+            }
+        }
+        out
+    };
+    let horizontal = pass(values, 1, 0);
+    let vertical = pass(&horizontal, 0, 1);
+    values.copy_from_slice(&vertical);
+}
+
+/// The same filter as a full 2-D gather over the square window (the reference the separable
+/// form approximates; exact where beta is constant and nothing is rejected).
+pub fn full_2d(pixels: &[FilterPixel], values: &[[f64; 3]], width: usize, o: &FilterOptions) -> Vec<[f64; 3]> {
+    let height = pixels.len().checked_div(width).unwrap_or(0);
+    let cos_min = o.max_normal_angle_deg.to_radians().cos();
+    let mut out = values.to_vec();
+    for y in 0..height as i64 {
+        for x in 0..width as i64 {
+            let i = (y * width as i64 + x) as usize;
+            let c = &pixels[i];
+            let r = radius(c, o);
+            if r == 0 || !c.valid {
+                continue;
+            }
+            let (mut sum, mut wsum) = ([0.0; 3], 0.0);
+            for ny in (y - r).max(0)..=(y + r).min(height as i64 - 1) {
+                for nx in (x - r).max(0)..=(x + r).min(width as i64 - 1) {
+                    let j = (ny * width as i64 + nx) as usize;
+                    let w = if i == j { 1.0 } else { weight(c, &pixels[j], cos_min, o) };
+                    for ch in 0..3 {
+                        sum[ch] += w * values[j][ch];
+                    }
+                    wsum += w;
+                }
+            }
+            out[i] = sum.map(|s| s / wsum);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A plane parallel to the light, seen so that pixel (x, y) sits at (x, y) * spacing in the
+    /// light plane: the world grid is aligned with the light axes (methods.md §1.6).
+    fn plane(w: usize, h: usize, spacing: f64, beta_px: f64) -> Vec<FilterPixel> {
+        (0..w * h)
+            .map(|i| FilterPixel {
+                plane: DVec2::new((i % w) as f64, (i / w) as f64) * spacing,
+                normal: Vec3::Z,
+                object: 0,
+                valid: true,
+                beta: beta_px * spacing,
+                d: spacing,
+            })
+            .collect()
+    }
+
+    fn noise(n: usize) -> Vec<[f64; 3]> {
+        (0..n)
+            .map(|i| {
+                let h = crate::render::sampler::mix64(i as u64);
+                [
+                    (h & 0xffff) as f64 / 65535.0,
+                    ((h >> 16) & 0xffff) as f64 / 65535.0,
+                    ((h >> 32) & 0xffff) as f64 / 65535.0,
+                ]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn separable_equals_2d_for_constant_beta() {
+        let (w, h) = (23, 17);
+        let px = plane(w, h, 0.01, 1.7);
+        let v = noise(w * h);
+        let mut sep = v.clone();
+        separable(&px, &mut sep, w, &FilterOptions::default());
+        let full = full_2d(&px, &v, w, &FilterOptions::default());
+        // Away from the border (where the window is clipped differently), to 1e-12.
+        for y in 6..h - 6 {
+            for x in 6..w - 6 {
+                let i = y * w + x;
+                for c in 0..3 {
+                    assert!((sep[i][c] - full[i][c]).abs() < 1e-12, "({x},{y}): {} vs {}", sep[i][c], full[i][c]);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn constant_image_stays_constant() {
+        let (w, h) = (19, 11);
+        let mut px = plane(w, h, 0.5, 3.0);
+        // Vary beta, validity and normals: partition of unity must hold regardless.
+        for (i, p) in px.iter_mut().enumerate() {
+            p.beta *= 0.2 + (i % 7) as f64;
+            p.valid = i % 13 != 0;
+            if i % 5 == 0 {
+                p.normal = Vec3::X;
+            }
+        }
+        let mut v = vec![[0.25, 1.0, 3.0]; w * h];
+        separable(&px, &mut v, w, &FilterOptions { object_id_check: true, ..FilterOptions::default() });
+        for x in &v {
+            for (c, e) in x.iter().zip([0.25, 1.0, 3.0]) {
+                assert!((c - e).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn unfiltered_and_tiny_beta_pixels_keep_their_values() {
+        let (w, h) = (9, 9);
+        let mut px = plane(w, h, 1.0, 0.0);
+        let v = noise(w * h);
+        let mut out = v.clone();
+        separable(&px, &mut out, w, &FilterOptions::default());
+        assert_eq!(out, v);
+        // beta = 0.2 px: neighbour weights exp(-12.5) ~ 4e-6.
+        for p in &mut px {
+            p.beta = 0.2;
+        }
+        let mut out = v.clone();
+        separable(&px, &mut out, w, &FilterOptions::default());
+        for (a, b) in out.iter().zip(&v) {
+            assert!((a[0] - b[0]).abs() < 1e-4);
+        }
+    }
+
+    #[test]
+    fn rejected_neighbours_do_not_leak_across_edges() {
+        let (w, h) = (12, 3);
+        let mut px = plane(w, h, 1.0, 4.0);
+        let mut v = vec![[0.0; 3]; w * h];
+        for (i, p) in px.iter_mut().enumerate() {
+            if i % w >= 6 {
+                p.normal = Vec3::Y; // a wall at right angles
+                v[i] = [1.0; 3];
+            }
+        }
+        separable(&px, &mut v, w, &FilterOptions::default());
+        for (i, x) in v.iter().enumerate() {
+            assert_eq!(x[0], if i % w >= 6 { 1.0 } else { 0.0 });
+        }
+    }
+
+    #[test]
+    fn distance_along_the_light_normal_does_not_count() {
+        // Two pixels with the same light-plane coordinates are full neighbours whatever their
+        // depth below the light: the filter only sees plane coordinates (Eq. 12).
+        let a = FilterPixel { plane: DVec2::new(0.0, 0.0), normal: Vec3::Z, object: 0, valid: true, beta: 1.0, d: 1.0 };
+        let o = FilterOptions::default();
+        assert_eq!(weight(&a, &a, 0.9, &o), 1.0);
+    }
+}

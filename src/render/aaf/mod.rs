@@ -1,0 +1,553 @@
+//! Axis-aligned filtering of area-light soft shadows (Mehta, Wang, Ramamoorthi 2012) as a
+//! progressive strategy, with the baselines of the paper's Fig. 6 as modes of the same code.
+//!
+//! Per pixel and per rectangular light, every sample (a jittered camera ray, as in `uniform`,
+//! and a stratified point on the light) adds to A = sum u V and B = sum u, where u is the
+//! unshadowed direct integrand f Le G / pdf (RGB) and V the visibility. Then
+//! - r(x) = B / n is the unshadowed light (textures and the BRDF live here, Eq. 1), and
+//! - h(x) = A / B is the noisy visibility, weighted by the light (Eq. 10), which is filtered.
+//!
+//! The output r * filtered h becomes exactly A / n, the plain Monte Carlo estimate, once the
+//! filter shrinks below a pixel, so the stream converges to the same ground truth as `uniform`
+//! (the paper's consistency, Sec. 5.2). Departure from the paper: r(x) is this Monte Carlo
+//! estimate rather than the irradiance from the light's centre, and the visibility weights are
+//! the whole unshadowed integrand rather than the light profile alone: the paper's "cosine
+//! falloff folded into l(y)" extension (Sec. 3, Sec. 7), which is what makes the limit exact.
+//! Point lights, emission and indirect bounces are added unfiltered.
+pub mod filter;
+pub mod params;
+
+use super::frame::{Frame, FrameStats};
+use super::gbuffer::GBuffer;
+use super::integrator::{radiance_from, DirectLights};
+use super::light::{EmissionProfile, Light, RectLight};
+use super::material::Material;
+use super::progressive::{RenderError, RenderJob};
+use super::sampler::PixelSampler;
+use super::scene::Scene;
+use super::strategy::{PassContext, PassOutput, Strategy};
+use filter::{FilterOptions, FilterPixel};
+use glam::{DVec2, Vec3};
+use params::{filter_width, sample_count, slope, AafConstants, PixelGeometry};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// What the strategy does with its samples (the curves of the paper's Fig. 6c).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadowMode {
+    /// Adaptive sampling and adaptive filtering: the method.
+    Aaf,
+    /// AAF's sample counts, no filter.
+    Adaptive,
+    /// The same samples everywhere (doubling per pass) and a fixed-width filter.
+    UniformFiltered,
+}
+
+/// Parameters; the defaults are the paper's (Sec. 6) where it gives them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AafOptions {
+    pub constants: AafConstants,
+    /// Filter scale of the first passes; pass k >= 1 uses mu0 * 2^(k-1) (Sec. 5.2).
+    pub mu0: f64,
+    /// Multiplies mu for uniform (non-Gaussian) lights: the paper needed mu = 3 where it used
+    /// mu = 2 for Gaussian lights (Sec. 7, Fig. 11b), i.e. 1.5.
+    pub uniform_light_mu_scale: f64,
+    /// Samples per pixel and light of the sparse first pass (Sec. 6: 9).
+    pub sparse_samples: u32,
+    /// Most samples per pixel and light at mu = 1; the cap grows as mu^2, like n itself.
+    pub cap: f64,
+    /// Unoccluded pixels take the mean slopes of occluded pixels within this radius (Sec. 6).
+    pub fill_radius: u32,
+    /// Divide the projected pixel size by |n . view| (the paper's d "accounts for
+    /// foreshortening"); the authors' code left it out.
+    pub foreshortening: bool,
+    pub filter: FilterOptions,
+    /// Filter width in pixels of the `uniform-filtered` baseline.
+    pub fixed_filter_px: f64,
+}
+
+impl Default for AafOptions {
+    fn default() -> Self {
+        AafOptions {
+            constants: AafConstants::default(),
+            mu0: 1.0,
+            uniform_light_mu_scale: 1.5,
+            sparse_samples: 9,
+            cap: 100.0,
+            fill_radius: 5,
+            foreshortening: true,
+            filter: FilterOptions::default(),
+            fixed_filter_px: 2.0,
+        }
+    }
+}
+
+/// One rectangular light as the strategy sees it.
+struct ShadowLight {
+    /// Index in `scene.lights`.
+    index: usize,
+    corner: Vec3,
+    axis_u: Vec3,
+    axis_v: Vec3,
+    sigma: f64,
+    mu_scale: f64,
+}
+
+/// Running sums of one pixel for one light.
+#[derive(Clone, Copy, Debug)]
+struct LightSums {
+    a: [f64; 3],
+    b: [f64; 3],
+    n: u32,
+    /// Slopes from the sparse pass (s1 max, s2 min); `occluded` when any sparse ray was.
+    s1: f64,
+    s2: f64,
+    occluded: bool,
+}
+
+impl Default for LightSums {
+    fn default() -> Self {
+        LightSums { a: [0.0; 3], b: [0.0; 3], n: 0, s1: 0.0, s2: f64::INFINITY, occluded: false }
+    }
+}
+
+/// Everything else a pixel's samples carry (emission, point lights, indirect light).
+#[derive(Clone, Copy, Debug, Default)]
+struct OtherSums {
+    sum: [f64; 3],
+    n: u32,
+    /// Camera samples drawn: the next sample index.
+    taken: u32,
+}
+
+/// Slopes no larger than this keep averages and products finite (s -> inf means an occluder
+/// at the light, where every formula has already saturated).
+const MAX_SLOPE: f64 = 1e9;
+
+pub struct ShadowStrategy {
+    mode: ShadowMode,
+    opts: AafOptions,
+    width: usize,
+    height: usize,
+    lights: Vec<ShadowLight>,
+    gbuffer: Option<GBuffer>,
+    /// Pixel-major: sums[pixel * lights + l].
+    sums: Vec<LightSums>,
+    other: Vec<OtherSums>,
+    /// Slopes each pixel-light is filtered and sampled with (own or filled in), if any.
+    slopes: Vec<Option<(f64, f64)>>,
+    /// Projected pixel size per pixel.
+    d: Vec<f64>,
+    rays: u64,
+    dropped: u64,
+    method_seconds: f64,
+}
+
+impl ShadowStrategy {
+    pub fn new(job: &RenderJob, mode: ShadowMode) -> Self {
+        let lights = job
+            .scene
+            .lights
+            .iter()
+            .enumerate()
+            .filter_map(|(index, l)| match l {
+                Light::Rect(r) => Some(shadow_light(index, r, &job.aaf)),
+                Light::Point(_) => None,
+            })
+            .collect();
+        let (w, h) = (job.scene.width() as usize, job.scene.height() as usize);
+        ShadowStrategy {
+            mode,
+            opts: job.aaf.clone(),
+            width: w,
+            height: h,
+            lights,
+            gbuffer: None,
+            sums: Vec::new(),
+            other: Vec::new(),
+            slopes: Vec::new(),
+            d: Vec::new(),
+            rays: 0,
+            dropped: 0,
+            method_seconds: 0.0,
+        }
+    }
+
+    /// mu of pass `pass` (before a light's own scale).
+    fn mu(&self, pass: u32) -> f64 {
+        self.opts.mu0 * 2f64.powi(pass.saturating_sub(1).min(60) as i32)
+    }
+
+    fn setup(&mut self, scene: &Scene) {
+        let g = GBuffer::build(scene);
+        self.rays += (self.width * self.height) as u64;
+        let cam = scene.camera.position;
+        self.d = g
+            .pixels
+            .iter()
+            .map(|p| {
+                if !p.is_valid() {
+                    return 0.0;
+                }
+                let d = p.pixel_size as f64;
+                if self.opts.foreshortening {
+                    let view = (cam - p.position).normalize_or_zero();
+                    d / (p.normal.dot(view).abs() as f64).max(0.1)
+                } else {
+                    d
+                }
+            })
+            .collect();
+        let n = self.width * self.height;
+        self.sums = vec![LightSums::default(); n * self.lights.len()];
+        self.other = vec![OtherSums::default(); n];
+        self.slopes = vec![None; n * self.lights.len()];
+        self.gbuffer = Some(g);
+    }
+
+    /// Samples each pixel-light should have after pass `pass`.
+    fn targets(&self, pass: u32) -> Vec<u32> {
+        let sparse = self.opts.sparse_samples.max(1);
+        if pass == 0 {
+            return vec![sparse; self.sums.len()];
+        }
+        let nl = self.lights.len();
+        (0..self.sums.len())
+            .into_par_iter()
+            .map(|k| {
+                let (pixel, l) = (k / nl, k % nl);
+                match self.mode {
+                    ShadowMode::UniformFiltered => sparse.saturating_mul(1u32 << pass.min(20)),
+                    ShadowMode::Aaf | ShadowMode::Adaptive => {
+                        let Some((s1, s2)) = self.slopes[k] else { return sparse };
+                        let light = &self.lights[l];
+                        let mu = self.mu(pass) * light.mu_scale;
+                        let g = PixelGeometry { s1, s2, sigma: light.sigma, d: self.d[pixel] };
+                        let cap = (self.opts.cap * mu * mu).max(sparse as f64);
+                        let n = sample_count(&g, &self.opts.constants, mu, sparse as f64).min(cap);
+                        (n.ceil() as u32).max(self.sums[k].n)
+                    }
+                }
+            })
+            .collect()
+    }
+
+    /// Traces the samples each pixel-light still needs to reach `targets`.
+    fn trace(&mut self, ctx: &PassContext, targets: &[u32], record_slopes: bool) -> Result<bool, RenderError> {
+        let (scene, job) = (ctx.scene, ctx.job);
+        let (w, nl) = (self.width, self.lights.len());
+        let lights = &self.lights;
+        let results: Vec<(u64, u64, bool)> = self
+            .other
+            .par_chunks_mut(w)
+            .zip(self.sums.par_chunks_mut(w * nl.max(1)))
+            .zip(targets.par_chunks(w * nl.max(1)))
+            .enumerate()
+            .map(|(y, ((other_row, sums_row), target_row))| {
+                if ctx.stop.should_stop() {
+                    return (0, 0, false);
+                }
+                let (mut rays, mut dropped) = (0u64, 0u64);
+                for x in 0..w {
+                    let px = &mut other_row[x];
+                    let sums = &mut sums_row[x * nl..(x + 1) * nl];
+                    let want = &target_row[x * nl..(x + 1) * nl];
+                    let new = sums.iter().zip(want).map(|(s, &t)| t.saturating_sub(s.n)).max().unwrap_or(0);
+                    for _ in 0..new {
+                        let mut sampler = PixelSampler::new(job.seed, (y * w + x) as u32, px.taken);
+                        px.taken += 1;
+                        let (r, d) =
+                            sample_pixel(scene, job, lights, x, y, &mut sampler, sums, want, px, record_slopes);
+                        rays += r;
+                        dropped += d;
+                    }
+                }
+                (rays, dropped, true)
+            })
+            .collect();
+        if ctx.stop.is_cancelled() {
+            return Err(RenderError::Cancelled);
+        }
+        for (r, d, _) in &results {
+            self.rays += r;
+            self.dropped += d;
+        }
+        Ok(results.iter().all(|r| r.2))
+    }
+
+    /// Slopes for every pixel-light: its own from the sparse pass, or the mean of occluded
+    /// pixels within `fill_radius` for pixels whose sparse rays saw no occluder (Sec. 6).
+    fn fill_slopes(&mut self) {
+        let (w, h, nl) = (self.width as i64, self.height as i64, self.lights.len());
+        let r = self.opts.fill_radius as i64;
+        let sums = &self.sums;
+        let valid = |p: usize| self.gbuffer.as_ref().is_some_and(|g| g.pixels[p].is_valid());
+        self.slopes = (0..sums.len())
+            .into_par_iter()
+            .map(|k| {
+                let (p, l) = (k / nl, k % nl);
+                if !valid(p) {
+                    return None;
+                }
+                let own = &sums[k];
+                if own.occluded {
+                    return Some((own.s1.min(MAX_SLOPE), own.s2.min(MAX_SLOPE)));
+                }
+                let (x, y) = (p as i64 % w, p as i64 / w);
+                let (mut s1, mut s2, mut count) = (0.0, 0.0, 0u32);
+                for ny in (y - r).max(0)..=(y + r).min(h - 1) {
+                    for nx in (x - r).max(0)..=(x + r).min(w - 1) {
+                        if (nx - x).pow(2) + (ny - y).pow(2) > r * r {
+                            continue;
+                        }
+                        let q = &sums[(ny * w + nx) as usize * nl + l];
+                        if q.occluded {
+                            s1 += q.s1.min(MAX_SLOPE);
+                            s2 += q.s2.min(MAX_SLOPE);
+                            count += 1;
+                        }
+                    }
+                }
+                (count > 0).then(|| (s1 / count as f64, s2 / count as f64))
+            })
+            .collect();
+    }
+
+    /// Builds the frame of pass `pass`: filters each light's visibility and composes.
+    fn frame(&self, pass: u32) -> Frame {
+        let (w, nl) = (self.width, self.lights.len());
+        let n = w * self.height;
+        let mut color: Vec<[f64; 3]> = self.other.iter().map(|o| mean(o.sum, o.n)).collect();
+        let mut unfiltered = color.clone();
+        let mut width_px = vec![0.0f32; n];
+        let g = self.gbuffer.as_ref();
+        for (l, light) in self.lights.iter().enumerate() {
+            let at = |p: usize| &self.sums[p * nl + l];
+            let mut vis: Vec<[f64; 3]> = (0..n).map(|p| ratio(at(p).a, at(p).b)).collect();
+            if self.mode != ShadowMode::Adaptive {
+                let mu = self.mu(pass) * light.mu_scale;
+                let pixels: Vec<FilterPixel> = (0..n)
+                    .map(|p| {
+                        let gp = g.map(|g| g.pixels[p]);
+                        let valid = gp.is_some_and(|s| s.is_valid()) && at(p).b.iter().any(|&b| b > 0.0);
+                        let beta = match (self.mode, self.slopes.get(p * nl + l).copied().flatten()) {
+                            _ if !valid => 0.0,
+                            (ShadowMode::UniformFiltered, _) => self.opts.fixed_filter_px * self.d[p],
+                            (_, Some((s1, s2))) => filter_width(
+                                &PixelGeometry { s1, s2, sigma: light.sigma, d: self.d[p] },
+                                &self.opts.constants,
+                                mu,
+                            ),
+                            (_, None) => 0.0,
+                        };
+                        if beta > 0.0 && self.d[p] > 0.0 {
+                            width_px[p] = width_px[p].max((beta / self.d[p]) as f32);
+                        }
+                        let pos = gp.map_or(Vec3::ZERO, |s| s.position) - light.corner;
+                        FilterPixel {
+                            plane: DVec2::new(pos.dot(light.axis_u) as f64, pos.dot(light.axis_v) as f64),
+                            normal: gp.map_or(Vec3::ZERO, |s| s.normal),
+                            object: gp.map_or(u32::MAX, |s| s.object),
+                            valid,
+                            beta,
+                            d: self.d[p],
+                        }
+                    })
+                    .collect();
+                filter::separable(&pixels, &mut vis, w, &self.opts.filter);
+            }
+            for p in 0..n {
+                let s = at(p);
+                let r = mean(s.b, s.n);
+                for c in 0..3 {
+                    color[p][c] += r[c] * vis[p][c];
+                    unfiltered[p][c] += if s.n > 0 { s.a[c] / s.n as f64 } else { 0.0 };
+                }
+            }
+        }
+        let spp: Vec<f32> = (0..n)
+            .map(|p| {
+                let shadow: u32 = (0..nl).map(|l| self.sums[p * nl + l].n).sum();
+                shadow.max(self.other[p].n) as f32
+            })
+            .collect();
+        let to_f32 = |v: Vec<[f64; 3]>| v.into_iter().map(|c| c.map(|x| x as f32)).collect::<Vec<_>>();
+        let filters = self.mode != ShadowMode::Adaptive;
+        Frame {
+            width: self.width as u32,
+            height: self.height as u32,
+            color: to_f32(color),
+            unfiltered: filters.then(|| to_f32(unfiltered)),
+            stats: FrameStats {
+                mean_spp: spp.iter().map(|&s| s as f64).sum::<f64>() / n.max(1) as f64,
+                rays_traced: self.rays,
+                dropped_samples: self.dropped,
+                method_seconds: self.method_seconds,
+                ..FrameStats::default()
+            },
+            spp,
+            filter_width: filters.then_some(width_px),
+        }
+    }
+}
+
+impl Strategy for ShadowStrategy {
+    fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError> {
+        if ctx.pass == 0 {
+            self.setup(ctx.scene);
+        }
+        let t = Instant::now();
+        let targets = self.targets(ctx.pass);
+        self.method_seconds += t.elapsed().as_secs_f64();
+        let complete = self.trace(ctx, &targets, ctx.pass == 0)?;
+        let t = Instant::now();
+        if ctx.pass == 0 {
+            self.fill_slopes();
+        }
+        let frame = self.frame(ctx.pass);
+        self.method_seconds += t.elapsed().as_secs_f64();
+        let mut frame = frame;
+        frame.stats.method_seconds = self.method_seconds;
+        Ok(PassOutput { frame, complete })
+    }
+}
+
+fn shadow_light(index: usize, r: &RectLight, opts: &AafOptions) -> ShadowLight {
+    let axis_u = r.edge_u.normalize_or_zero();
+    ShadowLight {
+        index,
+        corner: r.corner,
+        axis_u,
+        axis_v: r.normal.cross(axis_u).normalize_or_zero(),
+        sigma: r.sigma() as f64,
+        mu_scale: match r.profile {
+            EmissionProfile::Gaussian => 1.0,
+            EmissionProfile::Uniform => opts.uniform_light_mu_scale,
+        },
+    }
+}
+
+fn mean(sum: [f64; 3], n: u32) -> [f64; 3] {
+    if n == 0 {
+        [0.0; 3]
+    } else {
+        sum.map(|s| s / n as f64)
+    }
+}
+
+/// A / B per channel; a channel that receives nothing from the light has visibility 0 (its r
+/// is 0 too, so the product is 0 either way).
+fn ratio(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|c| if b[c] > 0.0 { a[c] / b[c] } else { 0.0 })
+}
+
+/// One camera sample of one pixel: the rect lights that still need samples get one each; the
+/// rest of the light (emission, point lights, bounces) goes to `other`. Returns (rays, dropped).
+#[allow(clippy::too_many_arguments)]
+fn sample_pixel(
+    scene: &Scene,
+    job: &RenderJob,
+    lights: &[ShadowLight],
+    x: usize,
+    y: usize,
+    sampler: &mut PixelSampler,
+    sums: &mut [LightSums],
+    want: &[u32],
+    other: &mut OtherSums,
+    record_slopes: bool,
+) -> (u64, u64) {
+    let cam = &scene.camera;
+    let j = sampler.next_2d();
+    let dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
+    // Every light's dimensions are drawn whether used or not, so sample streams stay aligned.
+    let light_u: Vec<[f32; 2]> = lights.iter().map(|_| sampler.next_2d()).collect();
+    let mut rays = 1u64;
+    let Some(hit) = scene.intersect(cam.position, dir, 0.0) else {
+        for (s, &t) in sums.iter_mut().zip(want) {
+            if s.n < t {
+                s.n += 1;
+            }
+        }
+        other.n += 1;
+        return (rays, 0);
+    };
+    let wo = -dir;
+    let brdf = scene.materials[hit.material as usize].brdf(hit.uv);
+    let emitter = matches!(scene.materials[hit.material as usize], Material::Emitter { .. });
+    for (l, light) in lights.iter().enumerate() {
+        let s = &mut sums[l];
+        if s.n >= want[l] {
+            continue;
+        }
+        s.n += 1;
+        let Light::Rect(rect) = &scene.lights[light.index] else { continue };
+        if emitter || brdf.is_black() {
+            continue;
+        }
+        let Some(ls) = rect.sample(hit.p, light_u[l]) else { continue };
+        let cos = hit.ns.dot(ls.wi);
+        if cos <= 0.0 || hit.ng.dot(ls.wi) <= 0.0 {
+            continue;
+        }
+        let u = brdf.eval(wo, ls.wi, hit.ns) * ls.weight * cos;
+        if !u.is_finite() || u == Vec3::ZERO {
+            continue;
+        }
+        rays += 1;
+        let visible = if record_slopes {
+            match occluder_slopes(scene, hit.p, hit.ng, ls.point) {
+                (Some((s1, s2)), extra) => {
+                    rays += extra;
+                    s.occluded = true;
+                    s.s1 = s.s1.max(s1);
+                    s.s2 = s.s2.min(s2);
+                    false
+                }
+                (None, _) => true,
+            }
+        } else {
+            !scene.occluded(hit.p, hit.ng, ls.point)
+        };
+        for c in 0..3 {
+            s.b[c] += u[c] as f64;
+            if visible {
+                s.a[c] += u[c] as f64;
+            }
+        }
+    }
+    let r = radiance_from(scene, hit, wo, job.bounces, sampler, DirectLights::SkipRect);
+    rays += r.rays as u64;
+    other.n += 1;
+    if r.radiance.is_finite() {
+        for c in 0..3 {
+            other.sum[c] += r.radiance[c] as f64;
+        }
+        (rays, 0)
+    } else {
+        (rays, 1)
+    }
+}
+
+/// For a shadow ray from surface point `p` to light point `y`: None when unoccluded, else the
+/// slopes (s1 from the occluder nearest the light, s2 from the one nearest the receiver) of
+/// this ray, using the per-ray form s = t/(L - t) (methods.md §1.1) with closest-hit queries
+/// from both ends. Also returns the extra rays traced.
+fn occluder_slopes(scene: &Scene, p: Vec3, ng: Vec3, y: Vec3) -> (Option<(f64, f64)>, u64) {
+    let o = p + ng * Scene::ray_epsilon(p);
+    let d = y - o;
+    let l = d.length();
+    let (eps_o, eps_y) = (Scene::ray_epsilon(o), Scene::ray_epsilon(y));
+    if !(l > eps_o + eps_y) {
+        return (None, 0);
+    }
+    let dir = d / l;
+    let Some(near) = scene.geometry.intersect(o, dir, 0.0, l - eps_y) else { return (None, 0) };
+    // From the light back towards the receiver: the first occluder seen is the farthest from
+    // the receiver. It exists (the near one at least); fall back to it if precision loses it.
+    let far_t = scene.geometry.intersect(y, -dir, eps_y, l - eps_o).map_or(near.t, |h| l - h.t);
+    let (l, near_t, far_t) = (l as f64, near.t as f64, (far_t as f64).max(near.t as f64));
+    (Some((slope(far_t, l), slope(near_t, l))), 1)
+}
+
+#[cfg(test)]
+mod tests;

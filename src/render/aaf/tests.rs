@@ -1,0 +1,233 @@
+//! Tests of the AAF strategy on small scenes with fixed seeds.
+use super::*;
+use crate::render::frame::Frame;
+use crate::render::progressive::{render, CancelToken, Halt, Method};
+use crate::render::scene::{CameraDesc, SceneBuilder};
+use crate::render::texture::Texture;
+use glam::Vec2;
+use std::sync::Arc;
+
+/// A floor, a box hovering over it (or touching it) and one or two square lights, all scaled
+/// by `scale` (lengths only; radiometry is scale-free).
+fn shadow_scene(w: u32, h: u32, scale: f32, profile: EmissionProfile, lights: usize, gap: f32) -> Arc<Scene> {
+    let s = |v: Vec3| v * scale;
+    let mut b = SceneBuilder::new(CameraDesc {
+        position: s(Vec3::new(0.3, 3.0, 3.2)),
+        look_at: s(Vec3::new(0.0, 0.0, 0.1)),
+        up: Vec3::Y,
+        vertical_fov_deg: 45.0,
+        width: w,
+        height: h,
+    });
+    let white = b.add_material(Material::Lambertian {
+        albedo: Texture::Checker { even: Vec3::splat(0.8), odd: Vec3::splat(0.5), scale: 4.0 },
+    });
+    let floor = b.new_object();
+    let (c, u, v) = (s(Vec3::new(-3.0, 0.0, -3.0)), s(Vec3::new(0.0, 0.0, 6.0)), s(Vec3::new(6.0, 0.0, 0.0)));
+    b.geometry.push([c, c + u, c + u + v], None, Some([Vec2::ZERO, Vec2::Y, Vec2::ONE]), white, floor);
+    b.geometry.push([c, c + u + v, c + v], None, Some([Vec2::ZERO, Vec2::ONE, Vec2::X]), white, floor);
+    // A flat box (two quads, top and bottom) of half-size 0.4 at height `gap`.
+    let boxo = b.new_object();
+    for y in [gap, gap + 0.05] {
+        let (c, u, v) = (s(Vec3::new(-0.4, y, -0.4)), s(Vec3::new(0.8, 0.0, 0.0)), s(Vec3::new(0.0, 0.0, 0.8)));
+        b.geometry.push([c, c + u, c + u + v], None, None, white, boxo);
+        b.geometry.push([c, c + u + v, c + v], None, None, white, boxo);
+    }
+    for k in 0..lights {
+        let x = if lights == 1 { -0.4 } else { -1.2 + 1.2 * k as f32 };
+        b.add_rect_light(RectLight::new(
+            s(Vec3::new(x, 2.0, -0.4)),
+            s(Vec3::new(0.8, 0.0, 0.0)),
+            s(Vec3::new(0.0, 0.0, 0.8)),
+            Vec3::splat(6.0),
+            profile,
+        ));
+    }
+    Arc::new(b.build())
+}
+
+fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64) -> RenderJob {
+    RenderJob {
+        scene,
+        method,
+        halt: Halt { max_passes: passes, max_mean_spp: 0.0, time_budget: None },
+        seed,
+        bounces: 0,
+        initial_spp: 1,
+        aaf: AafOptions::default(),
+    }
+}
+
+fn frames(j: &RenderJob) -> Vec<Frame> {
+    let mut out = Vec::new();
+    render(j, &CancelToken::new(), &mut |f| {
+        out.push(f.clone());
+        true
+    })
+    .expect("render");
+    out
+}
+
+fn rmse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
+    let se: f64 = a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2))).sum();
+    (se / (3 * a.len()) as f64).sqrt()
+}
+
+#[test]
+fn rmse_against_the_ground_truth_falls_as_mu_grows() {
+    let scene = shadow_scene(32, 24, 1.0, EmissionProfile::Gaussian, 1, 0.6);
+    // Ground truth: plain Monte Carlo at 2048 spp with another seed.
+    let mut rj = job(scene.clone(), Method::Uniform, 12, 99);
+    rj.halt.max_mean_spp = 2048.0;
+    let reference = frames(&rj).pop().unwrap();
+    // Passes 1..=4 run mu = 1, 2, 4, 8.
+    let f = frames(&job(scene, Method::Aaf, 5, 1));
+    let e: Vec<f64> = f.iter().map(|fr| rmse(&fr.color, &reference.color)).collect();
+    for k in 2..5 {
+        assert!(e[k] < e[k - 1] * 1.02, "error rose from mu={} to mu={}: {e:?}", 1 << (k - 2), 1 << (k - 1));
+    }
+    assert!(e[4] < 0.7 * e[1], "{e:?}");
+    // The filter narrows: mean width in pixels halves with each doubling of mu.
+    let mean_width = |fr: &Frame| {
+        let w = fr.filter_width.as_ref().unwrap();
+        w.iter().map(|&x| x as f64).sum::<f64>() / w.len() as f64
+    };
+    for k in 2..5 {
+        let r = mean_width(&f[k]) / mean_width(&f[k - 1]);
+        assert!((r - 0.5).abs() < 1e-3, "pass {k}: ratio {r}");
+    }
+    // Samples grow with mu and are spent where the shadow is.
+    assert!(f.windows(2).all(|p| p[1].stats.mean_spp >= p[0].stats.mean_spp));
+    let spp = &f[3].spp;
+    assert!(spp.iter().cloned().fold(0.0, f32::max) > 4.0 * spp.iter().cloned().fold(f32::MAX, f32::min));
+}
+
+#[test]
+fn the_filtered_stream_converges_to_the_per_pixel_mean() {
+    let scene = shadow_scene(20, 16, 1.0, EmissionProfile::Uniform, 1, 0.6);
+    let mut j = job(scene, Method::Aaf, 9, 3);
+    j.aaf.cap = 4.0; // keep the sample counts of mu = 128 small for a debug build
+    let last = frames(&j).pop().unwrap();
+    let widths = last.filter_width.as_ref().unwrap();
+    assert!(widths.iter().all(|&w| w <= 0.3), "max width {}", widths.iter().cloned().fold(0.0, f32::max));
+    let unfiltered = last.unfiltered.as_ref().unwrap();
+    // Neighbour weights below exp(-1/(2 * 0.09)) ~ 0.4%: the filter is nearly the identity.
+    let e = rmse(&last.color, unfiltered);
+    let scale = last.color.iter().map(|c| c[0] as f64).sum::<f64>() / last.color.len() as f64;
+    assert!(e < 0.01 * scale, "rmse {e} vs mean {scale}");
+}
+
+#[test]
+fn unshadowed_pixels_equal_plain_monte_carlo_exactly() {
+    // No occluder near the light's path: every pixel is fully lit, visibility is exactly 1,
+    // and the output is the unfiltered estimate, whatever the filter does.
+    let scene = shadow_scene(16, 12, 1.0, EmissionProfile::Gaussian, 1, -5.0);
+    for fr in frames(&job(scene, Method::Aaf, 3, 5)) {
+        let u = fr.unfiltered.as_ref().unwrap();
+        for (a, b) in fr.color.iter().zip(u) {
+            for c in 0..3 {
+                assert!((a[c] - b[c]).abs() <= 1e-6 * b[c].abs().max(1e-3), "{a:?} vs {b:?}");
+            }
+        }
+        assert!(fr.filter_width.as_ref().unwrap().iter().all(|&w| w == 0.0));
+    }
+}
+
+#[test]
+fn each_light_has_its_own_counts_and_they_add_up() {
+    let one = frames(&job(shadow_scene(12, 10, 1.0, EmissionProfile::Gaussian, 1, 0.6), Method::Aaf, 1, 2));
+    let two = frames(&job(shadow_scene(12, 10, 1.0, EmissionProfile::Gaussian, 2, 0.6), Method::Aaf, 1, 2));
+    // Pass 0 is the sparse pass: 9 per light where the pixel sees the floor or the box.
+    assert!(one[0].spp.iter().all(|&s| s == 9.0));
+    assert!(two[0].spp.iter().all(|&s| s == 18.0));
+    let strategy = ShadowStrategy::new(
+        &job(shadow_scene(4, 4, 1.0, EmissionProfile::Gaussian, 2, 0.6), Method::Aaf, 1, 2),
+        ShadowMode::Aaf,
+    );
+    assert_eq!(strategy.lights.len(), 2);
+}
+
+#[test]
+fn images_do_not_depend_on_the_scene_scale() {
+    let run = |scale| {
+        frames(&job(shadow_scene(16, 12, scale, EmissionProfile::Uniform, 1, 0.5), Method::Aaf, 3, 8)).pop().unwrap()
+    };
+    let (small, unit, big) = (run(1e-3), run(1.0), run(1e4));
+    for other in [&small, &big] {
+        let e = rmse(&other.color, &unit.color);
+        assert!(e < 1e-3, "rmse {e} between scales");
+        assert!(other.color.iter().flatten().all(|v| v.is_finite()));
+    }
+}
+
+#[test]
+fn contact_shadows_and_grazing_views_stay_finite() {
+    // The box touches the floor (s2 -> 0 at the contact), and a camera skimming the floor.
+    let scene = shadow_scene(24, 8, 1.0, EmissionProfile::Gaussian, 1, 0.0);
+    for fr in frames(&job(scene, Method::Aaf, 4, 4)) {
+        assert!(fr.color.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+        assert!(fr.spp.iter().all(|s| s.is_finite() && *s >= 9.0));
+        assert!(fr.filter_width.as_ref().unwrap().iter().all(|w| w.is_finite() && *w >= 0.0));
+    }
+    let mut b = SceneBuilder::new(CameraDesc {
+        position: Vec3::new(0.0, 0.01, 5.0),
+        look_at: Vec3::new(0.0, 0.0, 0.0),
+        up: Vec3::Y,
+        vertical_fov_deg: 30.0,
+        width: 16,
+        height: 8,
+    });
+    let m = b.add_material(Material::Lambertian { albedo: Texture::Constant(Vec3::splat(0.5)) });
+    let (c, u, v) = (Vec3::new(-20.0, 0.0, -20.0), Vec3::new(0.0, 0.0, 40.0), Vec3::new(40.0, 0.0, 0.0));
+    b.geometry.push([c, c + u, c + u + v], None, None, m, 0);
+    b.geometry.push([c, c + u + v, c + v], None, None, m, 0);
+    b.geometry.push([Vec3::new(-1.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)], None, None, m, 1);
+    b.add_rect_light(RectLight::new(Vec3::new(-0.5, 2.0, -0.5), Vec3::X, Vec3::Z, Vec3::ONE, EmissionProfile::Uniform));
+    for fr in frames(&job(Arc::new(b.build()), Method::Aaf, 3, 1)) {
+        assert!(fr.color.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+    }
+}
+
+#[test]
+fn baselines_use_the_same_interface() {
+    let scene = shadow_scene(16, 12, 1.0, EmissionProfile::Gaussian, 1, 0.6);
+    // adaptive: AAF's counts, no filter.
+    let a = frames(&job(scene.clone(), Method::Adaptive, 3, 1));
+    let f = frames(&job(scene.clone(), Method::Aaf, 3, 1));
+    assert!(a.iter().all(|fr| fr.filter_width.is_none() && fr.unfiltered.is_none()));
+    assert_eq!(a[2].spp, f[2].spp, "adaptive samples exactly as aaf does");
+    assert_eq!(&a[2].color, f[2].unfiltered.as_ref().unwrap(), "and its image is aaf's unfiltered one");
+    // uniform-filtered: 9 * 2^k everywhere and a fixed 2-pixel filter where there is light.
+    let u = frames(&job(scene, Method::UniformFiltered, 3, 1));
+    for (k, fr) in u.iter().enumerate() {
+        assert!(fr.spp.iter().all(|&s| s == (9 << k) as f32), "pass {k}");
+        let w = fr.filter_width.as_ref().unwrap();
+        assert!(w.iter().all(|&x| x == 0.0 || (x - 2.0).abs() < 1e-5));
+        assert!(w.iter().filter(|&&x| x > 0.0).count() > w.len() / 2);
+    }
+}
+
+#[test]
+fn scenes_without_area_lights_render_as_uniform() {
+    let mut b = SceneBuilder::new(CameraDesc {
+        position: Vec3::new(0.0, 2.0, 2.0),
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vertical_fov_deg: 40.0,
+        width: 8,
+        height: 6,
+    });
+    let m = b.add_material(Material::Lambertian { albedo: Texture::Constant(Vec3::splat(0.5)) });
+    b.geometry.push(
+        [Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 0.0, -2.0), Vec3::new(0.0, 0.0, 2.0)],
+        None,
+        None,
+        m,
+        0,
+    );
+    b.lights.push(Light::Point(crate::render::light::PointLight { position: Vec3::Y, intensity: Vec3::ONE }));
+    let scene = Arc::new(b.build());
+    let a = frames(&job(scene.clone(), Method::Aaf, 2, 1));
+    let u = frames(&job(scene, Method::Uniform, 2, 1));
+    assert_eq!(a[1].color, u[1].color);
+}
