@@ -42,6 +42,14 @@ impl Default for Limits {
     }
 }
 
+impl Limits {
+    /// Limits for rendering in the user's own process (`wedge render`): the size limits stay
+    /// (they guard memory), but passes, samples and time are the user's to choose.
+    pub fn local() -> Self {
+        Limits { max_passes: 1 << 20, max_mean_spp: 1e12, max_time_budget_seconds: f64::INFINITY, ..Limits::default() }
+    }
+}
+
 pub struct PreparedJob {
     pub job: RenderJob,
     pub info: RenderInfo,
@@ -79,7 +87,7 @@ pub fn prepare(
         max_pixels: limits.max_pixels,
         mesh_root: limits.mesh_root.clone(),
     };
-    let compiled = compile(&scene, &scene_limits, base_dir)?;
+    let compiled = compile(&scene, &scene_limits, base_dir).map_err(|e| name_override(e, req))?;
     let cam = scene.camera.as_ref().map(camera_info).unwrap_or_default();
     Ok(PreparedJob {
         job: RenderJob {
@@ -99,6 +107,23 @@ pub fn prepare(
             camera: cam,
         },
     })
+}
+
+/// A scene error caused by a value the request overrode names the request's field.
+fn name_override(mut e: FieldError, req: &proto::RenderRequest) -> FieldError {
+    let cam = req.camera.as_ref();
+    let overridden = [
+        ("scene.camera.width", "width", req.width != 0),
+        ("scene.camera.height", "height", req.height != 0),
+        ("scene.camera.position", "camera.position", cam.is_some_and(|c| c.position.is_some())),
+        ("scene.camera.look_at", "camera.look_at", cam.is_some_and(|c| c.look_at.is_some())),
+        ("scene.camera.up", "camera.up", cam.is_some_and(|c| c.up.is_some())),
+        ("scene.camera.vertical_fov_deg", "camera.vertical_fov_deg", cam.is_some_and(|c| c.vertical_fov_deg.is_some())),
+    ];
+    if let Some((from, to, _)) = overridden.iter().find(|(from, _, set)| *set && e.field.starts_with(from)) {
+        e.field = e.field.replacen(from, to, 1);
+    }
+    e
 }
 
 fn camera_info(c: &proto::Camera) -> CameraInfo {
@@ -229,10 +254,12 @@ fn validate_settings(s: &proto::RenderSettings, limits: &Limits) -> FieldResult<
     } else {
         DEFAULT_PASSES.min(limits.max_passes)
     };
+    // The server's time limit bounds every render, also one that asks for no budget.
+    let budget = if time > 0.0 { time } else { limits.max_time_budget_seconds };
     let halt = Halt {
         max_passes,
         max_mean_spp: if spp > 0.0 { spp } else { limits.max_mean_spp },
-        time_budget: (time > 0.0).then(|| Duration::from_secs_f64(time)),
+        time_budget: Duration::try_from_secs_f64(budget).ok(),
     };
     Ok((method, halt, bounces, s.initial_spp.max(1)))
 }
@@ -277,8 +304,10 @@ mod tests {
         req.settings = Some(proto::RenderSettings { max_passes: 0, ..Default::default() });
         let p = prepare(&req, &Limits::default(), None, "grids").unwrap();
         assert_eq!(p.job.halt.max_passes, 8); // the scene's own setting
-                                              // A request's halt conditions replace the scene's as a group; the server's pass limit
-                                              // still bounds them.
+                                              // No budget asked: the server's time limit still bounds the render.
+        assert_eq!(p.job.halt.time_budget, Some(Duration::from_secs(3600)));
+        // A request's halt conditions replace the scene's as a group; the server's pass limit
+        // still bounds them.
         req.settings = Some(proto::RenderSettings { time_budget_seconds: 2.0, ..Default::default() });
         let p = prepare(&req, &Limits::default(), None, "grids").unwrap();
         assert_eq!(p.job.halt.time_budget, Some(Duration::from_secs(2)));
@@ -313,7 +342,11 @@ mod tests {
         let mut r = builtin_req("cornell");
         r.width = 100_000;
         r.height = 100_000;
-        assert_eq!(field_of(r), "scene.camera.width");
+        assert_eq!(field_of(r), "width");
+        let mut r = builtin_req("cornell");
+        r.camera =
+            Some(proto::CameraOverride { up: Some(proto::Vec3 { x: 0.0, y: 0.0, z: 1.0 }), ..Default::default() });
+        assert_eq!(field_of(r), "camera.up");
         let mut r = builtin_req("cornell");
         r.settings = Some(proto::RenderSettings { bounces: Some(1000), ..Default::default() });
         assert_eq!(field_of(r), "settings.bounces");

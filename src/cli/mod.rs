@@ -60,6 +60,9 @@ pub struct ServeArgs {
     /// Largest streamed chunk in bytes (clients' default receive limit is 4 MiB).
     #[arg(long, default_value_t = 1 << 20)]
     pub max_chunk_bytes: usize,
+    /// Largest request in bytes (inline scenes with big meshes need more than gRPC's 4 MiB).
+    #[arg(long, default_value_t = 256 << 20)]
+    pub max_request_bytes: usize,
     /// Seconds in-flight renders may run on after SIGINT/SIGTERM before they are cancelled.
     #[arg(long, default_value_t = 10.0)]
     pub shutdown_grace: f64,

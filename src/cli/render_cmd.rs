@@ -9,14 +9,23 @@ use indicatif::{ProgressBar, ProgressStyle};
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let scene = resolve_scene(&args)?;
     let req = build_request(&args, scene.source.clone())?;
-    let limits = Limits { mesh_root: scene.mesh_root.clone(), ..Limits::default() };
+    let limits = Limits { mesh_root: scene.mesh_root.clone(), ..Limits::local() };
     let prepared = prepare(&req, &limits, scene.base_dir.as_deref(), &scene.label)
         .map_err(|e| anyhow!("{}", scene.describe(&e)))?;
     let job = &prepared.job;
-    let bar = ProgressBar::new(job.halt.max_passes as u64).with_style(
-        ProgressStyle::with_template("{spinner} pass {pos}/{len} {wide_bar} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    // A bar over the passes when a pass count ends the render; a spinner when spp or time do.
+    let by_passes = args.max_spp.is_none() && args.time.is_none();
+    let bar = if by_passes {
+        ProgressBar::new(job.halt.max_passes as u64).with_style(
+            ProgressStyle::with_template("{spinner} pass {pos}/{len} {wide_bar} {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        )
+    } else {
+        ProgressBar::new_spinner().with_style(
+            ProgressStyle::with_template("{spinner} pass {pos} {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+        )
+    };
     bar.set_message(format!("{}x{} {}", job.scene.width(), job.scene.height(), job.method.name()));
     let writer = FrameWriter::new(&args);
     let mut failure = None;

@@ -118,7 +118,8 @@ impl FrameWriter {
 
     pub fn frame(&self, frame: &Frame, info: &RenderInfo) -> anyhow::Result<()> {
         let pass = frame.stats.pass;
-        if self.every.is_some_and(|n| n > 0 && pass.is_multiple_of(n)) {
+        // Every N-th pass counting from 1, as the server's `frame_every` does.
+        if self.every.is_some_and(|n| n > 0 && (pass + 1).is_multiple_of(n)) {
             write_frame_files(&self.out, &format!("pass_{pass:03}"), frame, info, &self.opts)?;
         }
         if frame.stats.is_final {

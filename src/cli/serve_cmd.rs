@@ -16,6 +16,7 @@ pub fn run(a: ServeArgs) -> anyhow::Result<()> {
         },
         max_concurrent_renders: a.max_concurrent.max(1),
         max_chunk_bytes: a.max_chunk_bytes,
+        max_request_bytes: a.max_request_bytes,
         shutdown_grace: std::time::Duration::try_from_secs_f64(a.shutdown_grace.max(0.0))
             .map_err(|e| anyhow::anyhow!("--shutdown-grace {}: {e}", a.shutdown_grace))?,
     };

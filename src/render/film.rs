@@ -6,7 +6,7 @@ use super::scene::Scene;
 use super::strategy::StopCheck;
 use rayon::prelude::*;
 
-/// Rows per unit of parallel work. Stop requests are checked before every row.
+/// Rows per unit of parallel work. Stop requests are checked before every pixel.
 const BAND_ROWS: usize = 4;
 
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -69,12 +69,12 @@ impl Film {
             .map(|(band, rows)| {
                 let mut t = Tally { complete: true, ..Tally::default() };
                 for (r, row) in rows.chunks_mut(w).enumerate() {
-                    if stop.should_stop() {
-                        t.complete = false;
-                        return t;
-                    }
                     let y = band * BAND_ROWS + r;
                     for (x, px) in row.iter_mut().enumerate() {
+                        if stop.should_stop() {
+                            t.complete = false;
+                            return t;
+                        }
                         let index = y * w + x;
                         for _ in 0..count(index) {
                             let mut sampler = PixelSampler::new(seed, index as u32, px.taken);
@@ -113,6 +113,14 @@ impl Film {
 
     pub fn spp_map(&self) -> Vec<f32> {
         self.pixels.iter().map(|p| p.n as f32).collect()
+    }
+
+    /// Mean samples drawn per pixel (kept and dropped).
+    pub fn mean_taken(&self) -> f64 {
+        if self.pixels.is_empty() {
+            return 0.0;
+        }
+        self.pixels.iter().map(|p| p.taken as f64).sum::<f64>() / self.pixels.len() as f64
     }
 
     pub fn mean_spp(&self) -> f64 {

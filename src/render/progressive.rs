@@ -23,8 +23,9 @@ impl CancelToken {
     }
 }
 
-/// Halt conditions; the render stops at whichever is met first (and always after at least one
-/// frame).
+/// Halt conditions; the render stops at whichever is met first. Every render yields at least
+/// one frame: a time budget that ends inside pass 0 gives a partial first frame (its spp map
+/// shows which pixels it reached).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Halt {
     pub max_passes: u32,
@@ -101,11 +102,7 @@ pub fn render(
     let mut strategy = make_strategy(job);
     let halt = &job.halt;
     for pass in 0.. {
-        // The first pass always completes so that every render yields a frame.
-        let stop = StopCheck {
-            cancel: cancel.clone(),
-            deadline: if pass == 0 { None } else { halt.time_budget.map(|b| start + b) },
-        };
+        let stop = StopCheck { cancel: cancel.clone(), deadline: halt.time_budget.map(|b| start + b) };
         let ctx = PassContext { scene: &job.scene, job, pass, stop: &stop };
         let PassOutput { mut frame, complete } = strategy.run_pass(&ctx)?;
         let elapsed = start.elapsed();

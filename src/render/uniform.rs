@@ -44,7 +44,9 @@ impl Strategy for Uniform {
             spp: self.film.spp_map(),
             filter_width: None,
             stats: FrameStats {
-                mean_spp: self.film.mean_spp(),
+                // Samples drawn, including any dropped as non-finite (the spp map counts the
+                // ones kept), so a dropped sample cannot keep the spp halt from firing.
+                mean_spp: self.film.mean_taken(),
                 rays_traced: self.rays,
                 dropped_samples: self.dropped,
                 ..FrameStats::default()

@@ -15,6 +15,10 @@ use std::path::Path;
 
 /// Largest Phong/Blinn-Phong exponent accepted (beyond it the lobe is a mirror in f32).
 pub const MAX_EXPONENT: f32 = 1e6;
+/// Largest light radiance and intensity: far beyond any real light, yet small enough that
+/// radiance times geometry terms cannot overflow f32 into infinity.
+pub const MAX_RADIANCE: f32 = 1e9;
+pub const MAX_INTENSITY: f32 = 1e12;
 
 pub fn compile(scene: &proto::Scene, limits: &SceneLimits, base_dir: Option<&Path>) -> FieldResult<Scene> {
     let camera = camera("scene.camera", &scene.camera, limits)?;
@@ -194,7 +198,7 @@ fn add_light(path: &str, l: &proto::Light, b: &mut SceneBuilder) -> FieldResult<
             if !(area > 0.0) || !area.is_finite() {
                 return err(format!("{p}.edge_v"), "must not be parallel to edge_u (the area must be > 0)");
             }
-            let radiance = rgb(&format!("{p}.radiance"), &r.radiance, f32::MAX)?;
+            let radiance = rgb(&format!("{p}.radiance"), &r.radiance, MAX_RADIANCE)?;
             let profile = match enum_value(&format!("{p}.profile"), r.profile)? {
                 proto::EmissionProfile::Uniform => EmissionProfile::Uniform,
                 proto::EmissionProfile::Gaussian => EmissionProfile::Gaussian,
@@ -205,7 +209,7 @@ fn add_light(path: &str, l: &proto::Light, b: &mut SceneBuilder) -> FieldResult<
         Some(Kind::Point(pt)) => {
             let p = format!("{path}.point");
             let position = vec3(&format!("{p}.position"), &pt.position)?;
-            let intensity = rgb(&format!("{p}.intensity"), &pt.intensity, f32::MAX)?;
+            let intensity = rgb(&format!("{p}.intensity"), &pt.intensity, MAX_INTENSITY)?;
             b.lights.push(Light::Point(PointLight { position, intensity }));
             Ok(())
         }

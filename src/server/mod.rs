@@ -29,6 +29,8 @@ pub struct ServerConfig {
     pub max_concurrent_renders: usize,
     /// Cap on the pixel bytes of one streamed chunk (at least one row is always sent).
     pub max_chunk_bytes: usize,
+    /// Largest request (inline scene) accepted, in bytes.
+    pub max_request_bytes: usize,
     /// After a shutdown signal, how long in-flight renders may run on before they are
     /// cancelled (their clients get UNAVAILABLE).
     pub shutdown_grace: Duration,
@@ -41,6 +43,7 @@ impl Default for ServerConfig {
             limits: crate::job::Limits::default(),
             max_concurrent_renders: 2,
             max_chunk_bytes: DEFAULT_MAX_CHUNK_BYTES,
+            max_request_bytes: 256 << 20,
             shutdown_grace: Duration::from_secs(10),
         }
     }
@@ -114,7 +117,9 @@ pub async fn serve_on(
         .http2_keepalive_timeout(Some(Duration::from_secs(20)))
         .add_service(health_service)
         .add_service(reflection)
-        .add_service(RendererServer::new(service))
+        // Inline scenes can be large: accept requests up to the configured size (replies are
+        // chunked, so the 4 MiB default of clients is never an issue in that direction).
+        .add_service(RendererServer::new(service).max_decoding_message_size(config.max_request_bytes))
         .serve_with_incoming_shutdown(incoming, signal)
         .await
         .context("gRPC server failed")?;

@@ -49,12 +49,6 @@ impl RenderService {
     }
 }
 
-/// The proto enum value of a render method (matched by name: `uniform` <-> `METHOD_UNIFORM`).
-pub fn method_to_proto(method: Method) -> proto::Method {
-    let name = format!("METHOD_{}", method.name().to_ascii_uppercase());
-    proto::Method::from_str_name(&name).unwrap_or(proto::Method::Unspecified)
-}
-
 fn scene_label(req: &RenderRequest) -> String {
     match &req.scene_source {
         Some(SceneSource::Builtin(name)) => name.clone(),
@@ -109,7 +103,7 @@ impl Renderer for RenderService {
         let started = RenderStarted {
             width: job.scene.width(),
             height: job.scene.height(),
-            method: method_to_proto(job.method) as i32,
+            method: crate::job::method_to_proto(job.method) as i32,
             seed: job.seed,
             triangles: u32::try_from(job.scene.triangle_count()).unwrap_or(u32::MAX),
             layers: frames::layer_names(&outputs),

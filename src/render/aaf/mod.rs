@@ -244,11 +244,11 @@ impl ShadowStrategy {
             .zip(targets.par_chunks(w * nl.max(1)))
             .enumerate()
             .map(|(y, ((other_row, sums_row), target_row))| {
-                if ctx.stop.should_stop() {
-                    return (0, 0, false);
-                }
                 let (mut rays, mut dropped) = (0u64, 0u64);
                 for x in 0..w {
+                    if ctx.stop.should_stop() {
+                        return (rays, dropped, false);
+                    }
                     let px = &mut other_row[x];
                     let sums = &mut sums_row[x * nl..(x + 1) * nl];
                     let want = &target_row[x * nl..(x + 1) * nl];

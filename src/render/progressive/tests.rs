@@ -80,6 +80,8 @@ fn time_budget_halts_after_at_least_one_frame() {
     let f = frames(&j);
     assert_eq!(f.len(), 1);
     assert_eq!(f[0].stats.halt_reason, HaltReason::TimeBudget);
+    // The budget was over before the first pixel: a partial (here empty) first frame.
+    assert_eq!(f[0].stats.mean_spp, 0.0);
 }
 
 #[test]
@@ -139,4 +141,42 @@ fn more_samples_converge_towards_a_reference() {
     // 1 spp vs 32 spp: error should fall by roughly sqrt(32) ~ 5.7; demand at least 2.5x.
     assert!(e[0] > 2.5 * e[5], "{e:?}");
     assert!(e[5] < e[3] && e[3] < e[1], "{e:?}");
+}
+
+#[test]
+fn non_finite_samples_are_counted_and_dropped() {
+    // A light of infinite radiance seen by the camera makes those paths infinite: they are
+    // dropped and counted, the image stays finite, and the spp halt still fires.
+    let mut b = SceneBuilder::new(CameraDesc {
+        position: Vec3::new(0.0, 0.0, 2.0),
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vertical_fov_deg: 60.0,
+        width: 6,
+        height: 6,
+    });
+    let m = b.add_material(Material::Lambertian { albedo: Texture::Constant(Vec3::splat(0.5)) });
+    b.geometry.push(
+        [Vec3::new(-3.0, -3.0, -1.0), Vec3::new(3.0, -3.0, -1.0), Vec3::new(0.0, 3.0, -1.0)],
+        None,
+        None,
+        m,
+        0,
+    );
+    b.add_rect_light(RectLight::new(
+        Vec3::new(-0.3, -0.3, 0.0),
+        Vec3::new(0.6, 0.0, 0.0),
+        Vec3::new(0.0, 0.6, 0.0),
+        Vec3::splat(f32::INFINITY),
+        EmissionProfile::Uniform,
+    ));
+    let j = job(Arc::new(b.build()), Halt { max_passes: 50, max_mean_spp: 4.0, time_budget: None });
+    let f = frames(&j);
+    let last = f.last().unwrap();
+    assert!(last.stats.dropped_samples > 0);
+    assert_eq!(last.stats.halt_reason, HaltReason::MaxSpp);
+    assert_eq!(f.len(), 3, "1 + 1 + 2 samples reach the requested 4");
+    assert!(last.color.iter().flatten().all(|v| v.is_finite()));
+    // Pixels that only saw the light kept no sample: spp 0 there, and black.
+    assert!(last.spp.iter().any(|&s| s < 4.0));
 }
