@@ -5,11 +5,11 @@ use super::state::{RenderOutcome, ServerState};
 use super::ServerConfig;
 use crate::job::{self, Limits};
 use crate::proto::{
-    self, render_request::SceneSource, render_update, renderer_server::Renderer, ListScenesRequest, ListScenesResponse,
+    render_request::SceneSource, render_update, renderer_server::Renderer, ListScenesRequest, ListScenesResponse,
     OutputSelection, PixelFormat, RenderRequest, RenderStarted, RenderUpdate,
 };
 use crate::render::frame::Frame;
-use crate::render::progressive::{self, CancelToken, Method, RenderError, RenderJob};
+use crate::render::progressive::{self, CancelToken, RenderError, RenderJob};
 use std::sync::Arc;
 use std::time::Instant;
 use tokio::sync::{mpsc, Semaphore};
