@@ -1,5 +1,6 @@
 //! Benchmarks that `wedge bench` runs: ray throughput of the tracer (`rays`) and latency to the
 //! first frame over gRPC (`latency`). Results are printed as Markdown for BENCHMARKS.md.
+pub mod convergence;
 pub mod latency;
 pub mod rays;
 

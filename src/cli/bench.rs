@@ -39,6 +39,27 @@ pub enum BenchKind {
         #[arg(long)]
         dump: Option<PathBuf>,
     },
+    /// Error against samples and time: uniform, uniform-filtered, adaptive and aaf against a
+    /// high-spp uniform reference, with equal-error speedups over uniform.
+    Shadows {
+        #[arg(long, default_values_t = ["grids".to_string(), "curved".to_string()])]
+        scene: Vec<String>,
+        #[arg(long, default_value_t = 320)]
+        width: u32,
+        #[arg(long, default_value_t = 240)]
+        height: u32,
+        /// Samples per pixel of the reference.
+        #[arg(long, default_value_t = 4096.0)]
+        reference_spp: f64,
+        /// Passes of the uniform sweep (1, 2, 4, ... spp).
+        #[arg(long, default_value_t = 10)]
+        uniform_passes: u32,
+        /// Passes of the AAF-family sweeps (sparse pass, then mu = 1, 2, 4, ...).
+        #[arg(long, default_value_t = 5)]
+        aaf_passes: u32,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
     /// Latency from a Render request to its first frame over gRPC.
     Latency {
         #[arg(long, default_value = "cornell")]
@@ -102,6 +123,12 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             }
             Ok(())
         }
+        BenchKind::Shadows { scene, width, height, reference_spp, uniform_passes, aaf_passes, seed } => {
+            for name in &scene {
+                shadows(name, width, height, reference_spp, uniform_passes, aaf_passes, seed)?;
+            }
+            Ok(())
+        }
         BenchKind::Latency { scene, width, height, runs, addr } => {
             let req = proto::RenderRequest {
                 scene_source: Some(proto::render_request::SceneSource::Builtin(scene.clone())),
@@ -126,4 +153,70 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+fn shadows(
+    name: &str,
+    width: u32,
+    height: u32,
+    ref_spp: f64,
+    uniform_passes: u32,
+    aaf_passes: u32,
+    seed: u64,
+) -> anyhow::Result<()> {
+    use crate::bench::convergence::{consistent, final_frame, job, speedup, sweep};
+    use crate::render::progressive::Method;
+    let mut s = builtin::get(name).ok_or_else(|| anyhow::anyhow!("no built-in scene {name:?}"))?;
+    if let Some(c) = s.camera.as_mut() {
+        (c.width, c.height) = (width, height);
+    }
+    let bounces = s.settings.as_ref().and_then(|s| s.bounces).unwrap_or(0);
+    let scene = std::sync::Arc::new(compile(&s, &SceneLimits::default(), None)?);
+    let t = std::time::Instant::now();
+    let reference = final_frame(&job(scene.clone(), Method::Uniform, 64, ref_spp, seed + 1000, bounces))
+        .ok_or_else(|| anyhow::anyhow!("reference render failed"))?;
+    println!(
+        "### {name} ({width}x{height}, {bounces} bounces; reference: uniform, {} spp, {:.1} s)\n",
+        reference.stats.mean_spp,
+        t.elapsed().as_secs_f64()
+    );
+    let runs = [
+        (Method::Uniform, uniform_passes),
+        (Method::UniformFiltered, aaf_passes),
+        (Method::Adaptive, aaf_passes),
+        (Method::Aaf, aaf_passes),
+    ];
+    let curves: Vec<_> =
+        runs.iter().map(|&(m, p)| sweep(&job(scene.clone(), m, p, 0.0, seed, bounces), &reference)).collect();
+    println!("| method | pass | mean spp | seconds | method share | RMSE | equal-error speedup over uniform (samples, time) |");
+    println!("|---|---|---|---|---|---|---|");
+    let base = &curves[0];
+    for curve in &curves {
+        for p in curve {
+            let (ss, ts) = speedup(base, p);
+            let f = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.1}x"));
+            println!(
+                "| {} | {} | {:.1} | {:.3} | {:.1}% | {:.5} | {}, {} |",
+                p.method.name(),
+                p.pass,
+                p.mean_spp,
+                p.seconds,
+                100.0 * p.method_seconds / p.seconds.max(1e-9),
+                p.rmse,
+                f(ss),
+                f(ts)
+            );
+        }
+    }
+    println!();
+    for curve in &curves[1..] {
+        if let Some(m) = curve.first().map(|p| p.method.name()) {
+            println!(
+                "- {m}: error keeps falling with more samples: {}",
+                if consistent(&curve[1..], 0.02) { "yes" } else { "no" }
+            );
+        }
+    }
+    println!();
+    Ok(())
 }

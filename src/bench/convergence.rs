@@ -1,0 +1,125 @@
+//! Error against time and samples: renders a scene with each method, measures every frame's
+//! RMSE against a high-spp plain Monte Carlo reference, and derives equal-error speedups over
+//! uniform unfiltered Monte Carlo (the papers' Fig. 6c / Fig. 10a measurements).
+use crate::render::frame::Frame;
+use crate::render::progressive::{render, CancelToken, Halt, Method, RenderJob};
+use crate::render::scene::Scene;
+use std::sync::Arc;
+
+/// One frame of one method's progressive render.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Point {
+    pub method: Method,
+    pub pass: u32,
+    pub mean_spp: f64,
+    /// Wall seconds from the request to this frame.
+    pub seconds: f64,
+    /// Seconds spent in the method's own work (sample rates, filtering) so far.
+    pub method_seconds: f64,
+    pub rmse: f64,
+}
+
+pub fn job(
+    scene: Arc<Scene>,
+    method: Method,
+    max_passes: u32,
+    max_mean_spp: f64,
+    seed: u64,
+    bounces: u32,
+) -> RenderJob {
+    RenderJob {
+        scene,
+        method,
+        halt: Halt { max_passes, max_mean_spp, time_budget: None },
+        seed,
+        bounces,
+        initial_spp: 1,
+        aaf: Default::default(),
+    }
+}
+
+/// The last frame of a render.
+pub fn final_frame(job: &RenderJob) -> Option<Frame> {
+    let mut last = None;
+    render(job, &CancelToken::new(), &mut |f| {
+        if f.stats.is_final {
+            last = Some(f.clone());
+        }
+        true
+    })
+    .ok()?;
+    last
+}
+
+pub fn rmse(a: &Frame, b: &Frame) -> f64 {
+    let n = a.color.len().min(b.color.len()).max(1);
+    let se: f64 =
+        a.color.iter().zip(&b.color).flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2))).sum();
+    (se / (3 * n) as f64).sqrt()
+}
+
+/// Every frame of `job` as a point on its error curve.
+pub fn sweep(job: &RenderJob, reference: &Frame) -> Vec<Point> {
+    let mut points = Vec::new();
+    let _ = render(job, &CancelToken::new(), &mut |f| {
+        points.push(Point {
+            method: job.method,
+            pass: f.stats.pass,
+            mean_spp: f.stats.mean_spp,
+            seconds: f.stats.elapsed_seconds,
+            method_seconds: f.stats.method_seconds,
+            rmse: rmse(f, reference),
+        });
+        true
+    });
+    points
+}
+
+/// Where the baseline curve reaches `error`, by linear interpolation of log(x) against
+/// log(error) between the two baseline points that bracket it; `None` outside its range.
+pub fn at_error(base: &[Point], error: f64, x: impl Fn(&Point) -> f64) -> Option<f64> {
+    base.windows(2).find_map(|w| {
+        let (a, b) = (&w[0], &w[1]);
+        let (ea, eb) = (a.rmse.ln(), b.rmse.ln());
+        let e = error.ln();
+        if !((ea >= e && e >= eb) || (ea <= e && e <= eb)) || ea == eb {
+            return None;
+        }
+        let t = (e - ea) / (eb - ea);
+        Some((x(a).ln() + t * (x(b).ln() - x(a).ln())).exp())
+    })
+}
+
+/// Equal-error speedup of `p` over the baseline curve: (in samples, in seconds).
+pub fn speedup(base: &[Point], p: &Point) -> (Option<f64>, Option<f64>) {
+    (
+        at_error(base, p.rmse, |q| q.mean_spp).map(|s| s / p.mean_spp),
+        at_error(base, p.rmse, |q| q.seconds).map(|s| s / p.seconds),
+    )
+}
+
+/// Whether the error keeps falling along the curve (each point within `slack` of the last).
+pub fn consistent(points: &[Point], slack: f64) -> bool {
+    points.windows(2).all(|w| w[1].rmse <= w[0].rmse * (1.0 + slack))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pt(spp: f64, secs: f64, rmse: f64) -> Point {
+        Point { method: Method::Uniform, pass: 0, mean_spp: spp, seconds: secs, method_seconds: 0.0, rmse }
+    }
+
+    #[test]
+    fn equal_error_interpolates_on_the_log_log_curve() {
+        // Uniform MC: error ~ 1/sqrt(spp).
+        let base: Vec<Point> = (0..8).map(|k| (1u32 << k) as f64).map(|s| pt(s, s * 0.1, 1.0 / s.sqrt())).collect();
+        let p = pt(4.0, 0.2, 1.0 / 32f64.sqrt());
+        let (s, t) = speedup(&base, &p);
+        assert!((s.unwrap() - 8.0).abs() < 1e-9, "{s:?}");
+        assert!((t.unwrap() - 16.0).abs() < 1e-9, "{t:?}");
+        assert_eq!(speedup(&base, &pt(1.0, 1.0, 1e-9)), (None, None));
+        assert!(consistent(&base, 0.0));
+    }
+}
