@@ -133,6 +133,14 @@ impl Brdf {
         f
     }
 
+    /// The glossy part of f(wo, wi) alone (f minus kd/pi).
+    pub fn eval_specular(&self, wo: Vec3, wi: Vec3, n: Vec3) -> Vec3 {
+        if self.ks == Vec3::ZERO || n.dot(wi) <= 0.0 || n.dot(wo) <= 0.0 {
+            return Vec3::ZERO;
+        }
+        self.ks * self.lobe(wo, wi, n).0
+    }
+
     /// Density (solid angle) with which `sample` draws wi.
     pub fn pdf(&self, wo: Vec3, wi: Vec3, n: Vec3) -> f32 {
         let cos_i = n.dot(wi);

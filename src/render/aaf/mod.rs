@@ -1,19 +1,23 @@
 //! Axis-aligned filtering of area-light soft shadows (Mehta, Wang, Ramamoorthi 2012) as a
 //! progressive strategy, with the baselines of the paper's Fig. 6 as modes of the same code.
 //!
-//! Per pixel and per rectangular light, every sample (a jittered camera ray, as in `uniform`,
-//! and a stratified point on the light) adds to A = sum u V and B = sum u, where u is the
-//! unshadowed direct integrand f Le G / pdf (RGB) and V the visibility. Then
-//! - r(x) = B / n is the unshadowed light (textures and the BRDF live here, Eq. 1), and
-//! - h(x) = A / B is the noisy visibility, weighted by the light (Eq. 10), which is filtered.
+//! Eq. 1 splits the diffuse direct light of a rectangular light as h(x) = r(x) * visibility.
+//! Per pixel and light, every sample (a jittered camera ray, as in `uniform`, and a stratified
+//! point on the light) adds:
+//! - to R, the unshadowed diffuse light kd/pi L E(x) at the sample's hit, with E the light's
+//!   irradiance computed deterministically (`RectLight::unshadowed_irradiance`): r = R/n has
+//!   no light-sampling noise; textures live here, antialiased by the jitter;
+//! - to A = sum u V and B = sum u, with u the diffuse integrand kd/pi Le G / pdf and V the
+//!   visibility: h = A/B is the noisy visibility weighted by the light (Eq. 10), the only
+//!   thing filtered (Eqs. 11-13).
 //!
-//! The output r * filtered h becomes exactly A / n, the plain Monte Carlo estimate, once the
-//! filter shrinks below a pixel, so the stream converges to the same ground truth as `uniform`
-//! (the paper's consistency, Sec. 5.2). Departure from the paper: r(x) is this Monte Carlo
-//! estimate rather than the irradiance from the light's centre, and the visibility weights are
-//! the whole unshadowed integrand rather than the light profile alone: the paper's "cosine
-//! falloff folded into l(y)" extension (Sec. 3, Sec. 7), which is what makes the limit exact.
-//! Point lights, emission and indirect bounces are added unfiltered.
+//! The output r * filtered h tends to r * A/B once the filter shrinks below a pixel, a ratio
+//! estimator that converges with n to the same ground truth as `uniform` (the paper's
+//! consistency, Sec. 5.2). Departures from the paper: r is exact at each sample rather than
+//! the irradiance from the light's centre, and the visibility weights include the cosine and
+//! distance terms (the paper's "cosine falloff folded into l(y)", Sec. 3 and 7). The glossy
+//! part of area lights' direct light is added unfiltered, as the paper assumes a separate
+//! specular pass; so are point lights, emission and indirect bounces.
 pub mod filter;
 pub mod params;
 
@@ -98,6 +102,10 @@ struct ShadowLight {
 struct LightSums {
     a: [f64; 3],
     b: [f64; 3],
+    /// Sum of the exact unshadowed diffuse light r.
+    r: [f64; 3],
+    /// Sum of the glossy direct light (sampled, shadowed, unfiltered).
+    spec: [f64; 3],
     n: u32,
     /// Slopes from the sparse pass (s1 max, s2 min); `occluded` when any sparse ray was.
     s1: f64,
@@ -107,7 +115,16 @@ struct LightSums {
 
 impl Default for LightSums {
     fn default() -> Self {
-        LightSums { a: [0.0; 3], b: [0.0; 3], n: 0, s1: 0.0, s2: f64::INFINITY, occluded: false }
+        LightSums {
+            a: [0.0; 3],
+            b: [0.0; 3],
+            r: [0.0; 3],
+            spec: [0.0; 3],
+            n: 0,
+            s1: 0.0,
+            s2: f64::INFINITY,
+            occluded: false,
+        }
     }
 }
 
@@ -219,13 +236,17 @@ impl ShadowStrategy {
                 match self.mode {
                     ShadowMode::UniformFiltered => sparse.saturating_mul(1u32 << pass.min(20)),
                     ShadowMode::Aaf | ShadowMode::Adaptive => {
-                        let Some((s1, s2)) = self.slopes[k] else { return sparse };
                         let light = &self.lights[l];
                         let mu = self.mu(pass) * light.mu_scale;
+                        // Camera samples are jittered over the pixel (antialiasing, textures),
+                        // so every pixel needs a count that grows with mu to converge; Eq. 21
+                        // only speaks for the shadow (the paper shades pixel centres).
+                        let floor = (sparse as f64 * mu).ceil() as u32;
+                        let Some((s1, s2)) = self.slopes[k] else { return floor.max(self.sums[k].n) };
                         let g = PixelGeometry { s1, s2, sigma: light.sigma, d: self.d[pixel] };
                         let cap = (self.opts.cap * mu * mu).max(sparse as f64);
                         let n = sample_count(&g, &self.opts.constants, mu, sparse as f64).min(cap);
-                        (n.ceil() as u32).max(self.sums[k].n)
+                        (n.ceil() as u32).max(floor).max(self.sums[k].n)
                     }
                 }
             })
@@ -358,10 +379,10 @@ impl ShadowStrategy {
             }
             for p in 0..n {
                 let s = at(p);
-                let r = mean(s.b, s.n);
+                let (r, spec, raw) = (mean(s.r, s.n), mean(s.spec, s.n), ratio(s.a, s.b));
                 for c in 0..3 {
-                    color[p][c] += r[c] * vis[p][c];
-                    unfiltered[p][c] += if s.n > 0 { s.a[c] / s.n as f64 } else { 0.0 };
+                    color[p][c] += r[c] * vis[p][c] + spec[c];
+                    unfiltered[p][c] += r[c] * raw[c] + spec[c];
                 }
             }
         }
@@ -435,10 +456,11 @@ fn mean(sum: [f64; 3], n: u32) -> [f64; 3] {
     }
 }
 
-/// A / B per channel; a channel that receives nothing from the light has visibility 0 (its r
-/// is 0 too, so the product is 0 either way).
+/// A / B per channel. Where no light sample carried any light (B = 0) there is no evidence of
+/// occlusion, and the visibility is taken as 1: r alone decides (it is 0 where the pixel
+/// cannot see the light at all).
 fn ratio(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [0, 1, 2].map(|c| if b[c] > 0.0 { a[c] / b[c] } else { 0.0 })
+    [0, 1, 2].map(|c| if b[c] > 0.0 { a[c] / b[c] } else { 1.0 })
 }
 
 /// One camera sample of one pixel: the rect lights that still need samples get one each; the
@@ -484,13 +506,21 @@ fn sample_pixel(
         if emitter || brdf.is_black() {
             continue;
         }
+        // kd/pi where the BRDF is defined: like `Brdf::eval`, nothing where the shading normal
+        // faces away from the viewer (silhouettes of smooth-shaded meshes).
+        let diffuse = if hit.ns.dot(wo) > 0.0 { brdf.kd * (1.0 / std::f32::consts::PI) } else { Vec3::ZERO };
+        let r = diffuse.as_dvec3() * rect.radiance.as_dvec3() * rect.unshadowed_irradiance(hit.p, hit.ns, hit.ng);
+        for c in 0..3 {
+            s.r[c] += r[c];
+        }
         let Some(ls) = rect.sample(hit.p, light_u[l]) else { continue };
         let cos = hit.ns.dot(ls.wi);
         if cos <= 0.0 || hit.ng.dot(ls.wi) <= 0.0 {
             continue;
         }
-        let u = brdf.eval(wo, ls.wi, hit.ns) * ls.weight * cos;
-        if !u.is_finite() || u == Vec3::ZERO {
+        let u = diffuse * ls.weight * cos;
+        let g = brdf.eval_specular(wo, ls.wi, hit.ns) * ls.weight * cos;
+        if !u.is_finite() || !g.is_finite() || (u == Vec3::ZERO && g == Vec3::ZERO) {
             continue;
         }
         rays += 1;
@@ -512,6 +542,7 @@ fn sample_pixel(
             s.b[c] += u[c] as f64;
             if visible {
                 s.a[c] += u[c] as f64;
+                s.spec[c] += g[c] as f64;
             }
         }
     }
