@@ -430,3 +430,32 @@ async fn renders_past_the_shutdown_grace_period_are_cancelled() {
     server.stop(Duration::from_secs(10)).await.expect("server stops cleanly");
     assert_eq!(state.active_renders(), 0);
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_stock_client_receives_1080p_frames_with_every_layer() {
+    // tonic's client keeps its default 4 MiB receive limit here; every layer in f32 is 32 bytes
+    // a pixel, 66 MB a frame, which arrives as row chunks under the limit.
+    let server = TestServer::start().await;
+    let mut req = cornell(1920, 1080, 1, 3);
+    if let Some(s) = req.settings.as_mut() {
+        s.bounces = Some(0);
+    }
+    req.outputs = Some(OutputSelection { color: true, spp: true, filter_width: true, unfiltered: true, format: 0 });
+    let mut chunks = 0usize;
+    let mut client = server.client().await;
+    let mut stream = client.render(req).await.expect("render starts").into_inner();
+    let mut asm = wedge::server::FrameAssembler::new();
+    let mut frame = None;
+    while let Some(update) = within(300, "1080p stream", stream.message()).await.expect("no message over the limit") {
+        if matches!(update.kind, Some(wedge::proto::render_update::Kind::Chunk(_))) {
+            chunks += 1;
+        }
+        if let Some(f) = asm.push(update).expect("well-formed") {
+            frame = Some(f);
+        }
+    }
+    let frame = frame.expect("the frame");
+    assert_eq!((frame.width, frame.height), (1920, 1080));
+    assert!(frame.spp.iter().all(|&s| s == 1.0));
+    assert!(chunks >= 64, "{chunks} chunks");
+}

@@ -28,6 +28,21 @@ pub enum Material {
 }
 
 impl Material {
+    /// Whether shading reads surface coordinates (some texture varies over the surface); when
+    /// not, meshes using the material need no uv table.
+    pub fn uses_uv(&self) -> bool {
+        use super::texture::Texture::Checker;
+        match self {
+            Material::Lambertian { albedo } => matches!(albedo, Checker { .. }),
+            Material::Glossy { diffuse, specular, exponent, .. } => {
+                matches!(diffuse, Checker { .. })
+                    || matches!(specular, Checker { .. })
+                    || matches!(exponent, Checker { .. })
+            }
+            Material::Emitter { .. } => false,
+        }
+    }
+
     /// The BRDF at surface coordinates `uv`.
     pub fn brdf(&self, uv: Vec2) -> Brdf {
         match self {

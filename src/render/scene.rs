@@ -64,10 +64,10 @@ impl SceneBuilder {
         let index = self.lights.len() as u32;
         let material = self.add_material(Material::Emitter { light: index });
         let object = self.new_object();
+        // Emission reads no surface coordinates: no uv table.
         let (c, u, v) = (light.corner, light.edge_u, light.edge_v);
-        let uv = |a: f32, b: f32| Vec2::new(a, b);
-        self.geometry.push([c, c + u, c + u + v], None, Some([uv(0., 0.), uv(1., 0.), uv(1., 1.)]), material, object);
-        self.geometry.push([c, c + u + v, c + v], None, Some([uv(0., 0.), uv(1., 1.), uv(0., 1.)]), material, object);
+        self.geometry.push([c, c + u, c + u + v], None, None, material, object);
+        self.geometry.push([c, c + u + v, c + v], None, None, material, object);
         self.lights.push(Light::Rect(light));
     }
 

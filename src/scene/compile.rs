@@ -63,7 +63,8 @@ pub fn compile(scene: &proto::Scene, limits: &SceneLimits, base_dir: Option<&Pat
         }
         budget -= n;
         let object = b.new_object();
-        place(&mut b, mesh, &xf, material, object);
+        let uses_uv = b.materials[material as usize].uses_uv();
+        place(&mut b, mesh, &xf, material, object, uses_uv);
     }
     Ok(b.build())
 }
@@ -348,14 +349,15 @@ fn mesh_file(
     })
 }
 
-/// Adds a local-space mesh to the builder, transformed by `xf`.
-fn place(b: &mut SceneBuilder, mesh: &TriMesh, xf: &Mat4, material: u32, object: u32) {
+/// Adds a local-space mesh to the builder, transformed by `xf`. Texture coordinates are kept
+/// only when the material reads them.
+fn place(b: &mut SceneBuilder, mesh: &TriMesh, xf: &Mat4, material: u32, object: u32, uses_uv: bool) {
     let normal_xf = glam::Mat3::from_mat4(*xf).inverse().transpose();
     for t in &mesh.indices {
         let [i, j, k] = t.map(|i| i as usize);
         let p = [i, j, k].map(|v| xf.transform_point3(mesh.positions[v]));
         let n = mesh.normals.as_ref().map(|n| [i, j, k].map(|v| normal_xf * n[v]));
-        let uv = mesh.uvs.as_ref().map(|u| [i, j, k].map(|v| u[v]));
+        let uv = mesh.uvs.as_ref().filter(|_| uses_uv).map(|u| [i, j, k].map(|v| u[v]));
         b.geometry.push(p, n, uv, material, object);
     }
 }

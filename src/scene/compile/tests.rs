@@ -182,3 +182,22 @@ fn mesh_files_resolve_inside_the_root_only() {
     assert!(e.message.contains("outside the allowed root"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn only_textured_materials_keep_texture_coordinates() {
+    // The base scene's quad is constant-coloured: no uv table at all (lights have none either).
+    let plain = compile(&base(), &SceneLimits::default(), None).unwrap();
+    assert!(plain.geometry.uvs.is_empty());
+    let mut s = base();
+    s.materials[0].kind = Some(proto::material::Kind::Lambertian(proto::Lambertian {
+        albedo: Some(proto::ColorTexture {
+            kind: Some(proto::color_texture::Kind::Checker(proto::ColorChecker {
+                even: Some(proto::Rgb { r: 0.1, g: 0.1, b: 0.1 }),
+                odd: Some(proto::Rgb { r: 0.9, g: 0.9, b: 0.9 }),
+                scale: 2.0,
+            })),
+        }),
+    }));
+    let textured = compile(&s, &SceneLimits::default(), None).unwrap();
+    assert_eq!(textured.geometry.uvs.len(), 2);
+}
