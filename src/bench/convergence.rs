@@ -16,7 +16,12 @@ pub struct Point {
     pub seconds: f64,
     /// Seconds spent in the method's own work (sample rates, filtering) so far.
     pub method_seconds: f64,
+    /// Process CPU seconds from the request to this frame (all threads), where measurable.
+    pub cpu_seconds: Option<f64>,
+    pub rays: u64,
     pub rmse: f64,
+    /// Mean over pixels and channels of (x - ref)^2 / (ref^2 + 0.01).
+    pub rel_mse: f64,
 }
 
 pub fn job(
@@ -51,6 +56,17 @@ pub fn final_frame(job: &RenderJob) -> Option<Frame> {
     last
 }
 
+pub fn rel_mse(a: &Frame, b: &Frame) -> f64 {
+    let n = a.color.len().min(b.color.len()).max(1);
+    let sum: f64 = a
+        .color
+        .iter()
+        .zip(&b.color)
+        .flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2) / ((y[c] as f64).powi(2) + 0.01)))
+        .sum();
+    sum / (3 * n) as f64
+}
+
 pub fn rmse(a: &Frame, b: &Frame) -> f64 {
     let n = a.color.len().min(b.color.len()).max(1);
     let se: f64 =
@@ -61,6 +77,7 @@ pub fn rmse(a: &Frame, b: &Frame) -> f64 {
 /// Every frame of `job` as a point on its error curve.
 pub fn sweep(job: &RenderJob, reference: &Frame) -> Vec<Point> {
     let mut points = Vec::new();
+    let cpu0 = super::process_cpu_seconds();
     let _ = render(job, &CancelToken::new(), &mut |f| {
         points.push(Point {
             method: job.method,
@@ -68,7 +85,10 @@ pub fn sweep(job: &RenderJob, reference: &Frame) -> Vec<Point> {
             mean_spp: f.stats.mean_spp,
             seconds: f.stats.elapsed_seconds,
             method_seconds: f.stats.method_seconds,
+            cpu_seconds: cpu0.and_then(|c| super::process_cpu_seconds().map(|n| n - c)),
+            rays: f.stats.rays_traced,
             rmse: rmse(f, reference),
+            rel_mse: rel_mse(f, reference),
         });
         true
     });
@@ -108,7 +128,17 @@ mod tests {
     use super::*;
 
     fn pt(spp: f64, secs: f64, rmse: f64) -> Point {
-        Point { method: Method::Uniform, pass: 0, mean_spp: spp, seconds: secs, method_seconds: 0.0, rmse }
+        Point {
+            method: Method::Uniform,
+            pass: 0,
+            mean_spp: spp,
+            seconds: secs,
+            method_seconds: 0.0,
+            cpu_seconds: None,
+            rays: 0,
+            rmse,
+            rel_mse: 0.0,
+        }
     }
 
     #[test]

@@ -2,7 +2,10 @@
 //! first frame over gRPC (`latency`). Results are printed as Markdown for BENCHMARKS.md.
 pub mod convergence;
 pub mod latency;
+pub mod plot;
 pub mod rays;
+pub mod reference;
+pub mod run;
 
 /// Median of a non-empty sample (the mean of the middle two for even counts).
 pub fn median(mut v: Vec<f64>) -> f64 {
@@ -16,6 +19,17 @@ pub fn median(mut v: Vec<f64>) -> f64 {
     } else {
         0.5 * (v[n / 2 - 1] + v[n / 2])
     }
+}
+
+/// CPU seconds this process has used (user + system, all threads), from /proc on Linux.
+pub fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are the 14th and 15th.
+    let rest = stat.rsplit_once(')')?.1;
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    // Linux reports in USER_HZ, 100 on every architecture Rust targets.
+    Some(ticks / 100.0)
 }
 
 /// One line describing this machine, for benchmark reports.

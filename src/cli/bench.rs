@@ -6,10 +6,54 @@ use crate::scene::{builtin, compile, SceneLimits};
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
 
+/// `wedge bench [SCENES...]`: error against samples and time for every method (the default);
+/// `wedge bench rays` and `wedge bench latency`: the tracer and service benchmarks.
 #[derive(Args, Debug)]
+#[command(args_conflicts_with_subcommands = true)]
 pub struct BenchArgs {
     #[command(subcommand)]
-    pub what: BenchKind,
+    pub what: Option<BenchKind>,
+    #[command(flatten)]
+    pub convergence: ConvergenceArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct ConvergenceArgs {
+    /// Built-in scene names or scene files (default: every built-in scene).
+    pub scenes: Vec<String>,
+    /// Small images, short sweeps, two seeds: finishes in a few minutes on 2 cores.
+    #[arg(long)]
+    pub quick: bool,
+    #[arg(long)]
+    pub width: Option<u32>,
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Samples per pixel of the rendered reference (cached under OUT/cache).
+    #[arg(long)]
+    pub reference_spp: Option<f64>,
+    /// Use this EXR as the reference instead (one scene).
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// Methods to compare (default: uniform, uniform-filtered, adaptive, aaf).
+    #[arg(long, value_delimiter = ',')]
+    pub methods: Vec<String>,
+    /// Passes of the uniform sweep (1, 2, 4, ... spp).
+    #[arg(long)]
+    pub uniform_passes: Option<u32>,
+    /// Passes of the other methods' sweeps.
+    #[arg(long)]
+    pub passes: Option<u32>,
+    /// Seeds per method (medians are reported).
+    #[arg(long)]
+    pub repeats: Option<u32>,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Output directory.
+    #[arg(long, default_value = "bench-results")]
+    pub out: PathBuf,
+    /// Base name of the output files.
+    #[arg(long)]
+    pub name: Option<String>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -39,27 +83,6 @@ pub enum BenchKind {
         #[arg(long)]
         dump: Option<PathBuf>,
     },
-    /// Error against samples and time: uniform, uniform-filtered, adaptive and aaf against a
-    /// high-spp uniform reference, with equal-error speedups over uniform.
-    Shadows {
-        #[arg(long, default_values_t = ["grids".to_string(), "curved".to_string()])]
-        scene: Vec<String>,
-        #[arg(long, default_value_t = 320)]
-        width: u32,
-        #[arg(long, default_value_t = 240)]
-        height: u32,
-        /// Samples per pixel of the reference.
-        #[arg(long, default_value_t = 4096.0)]
-        reference_spp: f64,
-        /// Passes of the uniform sweep (1, 2, 4, ... spp).
-        #[arg(long, default_value_t = 10)]
-        uniform_passes: u32,
-        /// Passes of the AAF-family sweeps (sparse pass, then mu = 1, 2, 4, ...).
-        #[arg(long, default_value_t = 5)]
-        aaf_passes: u32,
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-    },
     /// Latency from a Render request to its first frame over gRPC.
     Latency {
         #[arg(long, default_value = "cornell")]
@@ -77,8 +100,9 @@ pub enum BenchKind {
 }
 
 pub fn run(a: BenchArgs) -> anyhow::Result<()> {
+    let Some(what) = a.what else { return convergence(a.convergence) };
     println!("Machine: {}\n", machine_description());
-    match a.what {
+    match what {
         BenchKind::Rays { scene, terrain_triangles, width, height, spp, repeats, bvh, dump } => {
             let quality = match bvh.as_str() {
                 "fast" => BvhQuality::Fast,
@@ -123,12 +147,6 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        BenchKind::Shadows { scene, width, height, reference_spp, uniform_passes, aaf_passes, seed } => {
-            for name in &scene {
-                shadows(name, width, height, reference_spp, uniform_passes, aaf_passes, seed)?;
-            }
-            Ok(())
-        }
         BenchKind::Latency { scene, width, height, runs, addr } => {
             let req = proto::RenderRequest {
                 scene_source: Some(proto::render_request::SceneSource::Builtin(scene.clone())),
@@ -155,68 +173,46 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     }
 }
 
-fn shadows(
-    name: &str,
-    width: u32,
-    height: u32,
-    ref_spp: f64,
-    uniform_passes: u32,
-    aaf_passes: u32,
-    seed: u64,
-) -> anyhow::Result<()> {
-    use crate::bench::convergence::{consistent, final_frame, job, speedup, sweep};
+fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
+    use crate::bench::run::{bench_scene, resolve_scenes, write_outputs, BenchConfig};
     use crate::render::progressive::Method;
-    let mut s = builtin::get(name).ok_or_else(|| anyhow::anyhow!("no built-in scene {name:?}"))?;
-    if let Some(c) = s.camera.as_mut() {
-        (c.width, c.height) = (width, height);
-    }
-    let bounces = s.settings.as_ref().and_then(|s| s.bounces).unwrap_or(0);
-    let scene = std::sync::Arc::new(compile(&s, &SceneLimits::default(), None)?);
-    let t = std::time::Instant::now();
-    let reference = final_frame(&job(scene.clone(), Method::Uniform, 64, ref_spp, seed + 1000, bounces))
-        .ok_or_else(|| anyhow::anyhow!("reference render failed"))?;
-    println!(
-        "### {name} ({width}x{height}, {bounces} bounces; reference: uniform, {} spp, {:.1} s)\n",
-        reference.stats.mean_spp,
-        t.elapsed().as_secs_f64()
+    let methods = if a.methods.is_empty() {
+        vec![Method::Uniform, Method::UniformFiltered, Method::Adaptive, Method::Aaf]
+    } else {
+        a.methods
+            .iter()
+            .map(|m| Method::from_name(m).ok_or_else(|| anyhow::anyhow!("--methods: unknown method {m:?}")))
+            .collect::<anyhow::Result<_>>()?
+    };
+    anyhow::ensure!(
+        methods.contains(&Method::Uniform),
+        "--methods must include uniform, the baseline of every speedup"
     );
-    let runs = [
-        (Method::Uniform, uniform_passes),
-        (Method::UniformFiltered, aaf_passes),
-        (Method::Adaptive, aaf_passes),
-        (Method::Aaf, aaf_passes),
-    ];
-    let curves: Vec<_> =
-        runs.iter().map(|&(m, p)| sweep(&job(scene.clone(), m, p, 0.0, seed, bounces), &reference)).collect();
-    println!("| method | pass | mean spp | seconds | method share | RMSE | equal-error speedup over uniform (samples, time) |");
-    println!("|---|---|---|---|---|---|---|");
-    let base = &curves[0];
-    for curve in &curves {
-        for p in curve {
-            let (ss, ts) = speedup(base, p);
-            let f = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.1}x"));
-            println!(
-                "| {} | {} | {:.1} | {:.3} | {:.1}% | {:.5} | {}, {} |",
-                p.method.name(),
-                p.pass,
-                p.mean_spp,
-                p.seconds,
-                100.0 * p.method_seconds / p.seconds.max(1e-9),
-                p.rmse,
-                f(ss),
-                f(ts)
-            );
-        }
+    let names = if a.scenes.is_empty() { builtin::names().map(String::from).collect() } else { a.scenes.clone() };
+    anyhow::ensure!(a.reference.is_none() || names.len() == 1, "--reference is one image: give one scene");
+    let q = a.quick;
+    let cfg = BenchConfig {
+        width: a.width.unwrap_or(if q { 96 } else { 320 }),
+        height: a.height.unwrap_or(if q { 72 } else { 240 }),
+        reference_spp: a.reference_spp.unwrap_or(if q { 512.0 } else { 4096.0 }),
+        reference: a.reference.clone(),
+        methods,
+        uniform_passes: a.uniform_passes.unwrap_or(if q { 8 } else { 11 }),
+        passes: a.passes.unwrap_or(if q { 4 } else { 5 }),
+        repeats: a.repeats.unwrap_or(if q { 2 } else { 3 }),
+        seed: a.seed,
+        out: a.out.clone(),
+        name: a.name.clone().unwrap_or_else(|| if q { "quick".into() } else { "full".into() }),
+        command: std::env::args().collect::<Vec<_>>().join(" "),
+    };
+    let mut results = Vec::new();
+    for (name, scene) in resolve_scenes(&names)? {
+        eprintln!("bench: {name} ...");
+        results.push(bench_scene(&name, scene, &cfg)?);
     }
-    println!();
-    for curve in &curves[1..] {
-        if let Some(m) = curve.first().map(|p| p.method.name()) {
-            println!(
-                "- {m}: error keeps falling with more samples: {}",
-                if consistent(&curve[1..], 0.02) { "yes" } else { "no" }
-            );
-        }
+    print!("{}", crate::bench::run::markdown(&results, &cfg));
+    for p in write_outputs(&results, &cfg)? {
+        eprintln!("wrote {}", p.display());
     }
-    println!();
     Ok(())
 }

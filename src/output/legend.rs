@@ -86,15 +86,21 @@ impl Legend {
 
     /// Draws `text` with its top-left corner at (x, y); characters outside ASCII show as '?'.
     fn draw_text(&self, canvas: &mut RgbImage, x: u32, y: u32, text: &str) {
-        let s = self.scale;
-        for (i, c) in text.chars().enumerate() {
-            let glyph = BASIC_LEGACY[if c.is_ascii() { c as usize } else { '?' as usize }];
-            let glyph_x = x + i as u32 * GLYPH * s;
-            for (row, bits) in (0..).zip(glyph) {
-                // Bit 0 of each row byte is the leftmost pixel.
-                for column in (0..GLYPH).filter(|&b| bits >> b & 1 == 1) {
-                    fill(canvas, glyph_x + column * s, y + row * s, s, s, INK);
-                }
+        draw_text(canvas, x, y, text, self.scale, INK);
+    }
+}
+
+/// Draws `text` in the 8x8 bitmap font, each font pixel `scale` canvas pixels, top-left at
+/// (x, y), clipped to the canvas; characters outside ASCII show as '?'.
+pub(crate) fn draw_text(canvas: &mut RgbImage, x: u32, y: u32, text: &str, scale: u32, color: Rgb<u8>) {
+    let s = scale.max(1);
+    for (i, c) in text.chars().enumerate() {
+        let glyph = BASIC_LEGACY[if c.is_ascii() { c as usize } else { '?' as usize }];
+        let glyph_x = x + i as u32 * GLYPH * s;
+        for (row, bits) in (0..).zip(glyph) {
+            // Bit 0 of each row byte is the leftmost pixel.
+            for column in (0..GLYPH).filter(|&b| bits >> b & 1 == 1) {
+                fill(canvas, glyph_x + column * s, y + row * s, s, s, color);
             }
         }
     }

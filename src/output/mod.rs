@@ -7,7 +7,7 @@ mod exr;
 mod exr_attributes;
 mod exr_canonical;
 mod falsecolor;
-mod legend;
+pub(crate) mod legend;
 mod preview;
 #[cfg(test)]
 mod test_util;

@@ -1,0 +1,297 @@
+//! `wedge bench`: for each scene, a reference, then every method's progressive sweep over a
+//! few seeds; medians per pass, equal-error speedups over uniform, consistency; written as
+//! JSON, CSV, Markdown and log-log plots (SVG and PNG).
+use super::convergence::{consistent, speedup, sweep, Point};
+use super::plot::{self, Series};
+use super::reference::{cached_reference, load_reference, ReferenceKey};
+use super::{machine_description, median};
+use crate::proto;
+use crate::render::progressive::Method;
+use crate::scene::{compile, SceneLimits};
+use serde_json::json;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+pub struct BenchConfig {
+    pub width: u32,
+    pub height: u32,
+    pub reference_spp: f64,
+    /// A given reference image instead of a rendered one (one scene only).
+    pub reference: Option<PathBuf>,
+    pub methods: Vec<Method>,
+    /// Passes of the uniform sweep (1, 2, 4, ... spp) and of the other methods.
+    pub uniform_passes: u32,
+    pub passes: u32,
+    pub repeats: u32,
+    pub seed: u64,
+    pub out: PathBuf,
+    pub name: String,
+    /// The command line, recorded in the report.
+    pub command: String,
+}
+
+/// One method's curve: the median over repeats at each pass.
+pub struct Curve {
+    pub method: Method,
+    pub points: Vec<Point>,
+}
+
+pub struct SceneResult {
+    pub name: String,
+    pub bounces: u32,
+    pub reference_note: String,
+    pub runs: Vec<(u32, Point)>,
+    pub curves: Vec<Curve>,
+}
+
+fn median_curve(method: Method, runs: &[Vec<Point>]) -> Curve {
+    let passes = runs.iter().map(Vec::len).min().unwrap_or(0);
+    let points = (0..passes)
+        .map(|k| {
+            let m = |f: &dyn Fn(&Point) -> f64| median(runs.iter().map(|r| f(&r[k])).collect());
+            Point {
+                method,
+                pass: k as u32,
+                mean_spp: m(&|p| p.mean_spp),
+                seconds: m(&|p| p.seconds),
+                method_seconds: m(&|p| p.method_seconds),
+                cpu_seconds: runs
+                    .iter()
+                    .all(|r| r[k].cpu_seconds.is_some())
+                    .then(|| m(&|p| p.cpu_seconds.unwrap_or(0.0))),
+                rays: m(&|p| p.rays as f64) as u64,
+                rmse: m(&|p| p.rmse),
+                rel_mse: m(&|p| p.rel_mse),
+            }
+        })
+        .collect();
+    Curve { method, points }
+}
+
+/// Runs the benchmark on one scene (a built-in name or a scene file's message).
+pub fn bench_scene(name: &str, mut scene: proto::Scene, cfg: &BenchConfig) -> anyhow::Result<SceneResult> {
+    if let Some(c) = scene.camera.as_mut() {
+        (c.width, c.height) = (cfg.width, cfg.height);
+    }
+    let bounces = scene.settings.as_ref().and_then(|s| s.bounces).unwrap_or(0);
+    let compiled = Arc::new(compile(&scene, &SceneLimits::default(), None)?);
+    let t = std::time::Instant::now();
+    let (reference, reference_note) = match &cfg.reference {
+        Some(path) => (load_reference(path, cfg.width, cfg.height)?, format!("given: {}", path.display())),
+        None => {
+            let key = ReferenceKey { scene: &scene, bounces, spp: cfg.reference_spp, seed: cfg.seed + 1_000_003 };
+            let (f, cached) = cached_reference(&cfg.out.join("cache"), &key, compiled.clone(), name)?;
+            let how =
+                if cached { "cached".to_string() } else { format!("rendered in {:.1} s", t.elapsed().as_secs_f64()) };
+            let note = format!("uniform, {} spp, {how}", f_spp(f.stats.mean_spp));
+            (f, note)
+        }
+    };
+    let mut runs = Vec::new();
+    let mut curves = Vec::new();
+    for &method in &cfg.methods {
+        let passes = if method == Method::Uniform { cfg.uniform_passes } else { cfg.passes };
+        let mut per_seed = Vec::new();
+        for r in 0..cfg.repeats.max(1) {
+            let j = super::convergence::job(compiled.clone(), method, passes, 0.0, cfg.seed + r as u64, bounces);
+            let pts = sweep(&j, &reference);
+            runs.extend(pts.iter().cloned().map(|p| (r, p)));
+            per_seed.push(pts);
+        }
+        curves.push(median_curve(method, &per_seed));
+    }
+    Ok(SceneResult { name: name.to_string(), bounces, reference_note, runs, curves })
+}
+
+fn f_spp(v: f64) -> String {
+    format!("{}", (v * 10.0).round() / 10.0)
+}
+
+/// The Markdown report of all scenes.
+pub fn markdown(results: &[SceneResult], cfg: &BenchConfig) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "Command: `{}`  \nMachine: {}  \n", cfg.command, machine_description());
+    for r in results {
+        let _ = writeln!(
+            s,
+            "### {} ({}x{}, {} bounces; reference: {}; medians of {} seeds)\n",
+            r.name, cfg.width, cfg.height, r.bounces, r.reference_note, cfg.repeats
+        );
+        let _ = writeln!(s, "| method | pass | mean spp | seconds | CPU s | method share | RMSE | rel. MSE | speedup over uniform at equal error (samples, time) |");
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
+        let base = r.curves.iter().find(|c| c.method == Method::Uniform).map(|c| c.points.as_slice()).unwrap_or(&[]);
+        for c in &r.curves {
+            for p in &c.points {
+                let (ss, ts) = speedup(base, p);
+                let x = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.1}x"));
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {:.3} | {} | {:.1}% | {:.5} | {:.2e} | {}, {} |",
+                    c.method.name(),
+                    p.pass,
+                    f_spp(p.mean_spp),
+                    p.seconds,
+                    p.cpu_seconds.map_or("-".into(), |c| format!("{c:.2}")),
+                    100.0 * p.method_seconds / p.seconds.max(1e-9),
+                    p.rmse,
+                    p.rel_mse,
+                    x(ss),
+                    x(ts)
+                );
+            }
+        }
+        let _ = writeln!(s);
+        for c in &r.curves {
+            let later = c.points.get(1..).unwrap_or(&[]);
+            let _ = writeln!(
+                s,
+                "- {}: error keeps falling as samples grow: {}",
+                c.method.name(),
+                if consistent(later, 0.02) { "yes" } else { "no" }
+            );
+        }
+        let _ = writeln!(s);
+    }
+    s
+}
+
+/// Writes `<name>.json`, `<name>.csv`, `<name>.md` and per-scene plots into `cfg.out`.
+pub fn write_outputs(results: &[SceneResult], cfg: &BenchConfig) -> anyhow::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(&cfg.out)?;
+    let mut written = Vec::new();
+    let path = |ext: &str| cfg.out.join(format!("{}.{ext}", cfg.name));
+    let point = |p: &Point| {
+        json!({"method": p.method.name(), "pass": p.pass, "mean_spp": p.mean_spp, "seconds": p.seconds,
+               "cpu_seconds": p.cpu_seconds, "method_seconds": p.method_seconds, "rays": p.rays,
+               "rmse": p.rmse, "rel_mse": p.rel_mse})
+    };
+    let scenes: Vec<_> = results
+        .iter()
+        .map(|r| {
+            let base = r.curves.iter().find(|c| c.method == Method::Uniform).map(|c| c.points.as_slice()).unwrap_or(&[]);
+            json!({
+                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces,
+                "reference": r.reference_note,
+                "runs": r.runs.iter().map(|(seed, p)| { let mut v = point(p); v["repeat"] = json!(seed); v }).collect::<Vec<_>>(),
+                "medians": r.curves.iter().flat_map(|c| c.points.iter().map(|p| {
+                    let (ss, ts) = speedup(base, p);
+                    let mut v = point(p);
+                    v["speedup_samples"] = json!(ss);
+                    v["speedup_seconds"] = json!(ts);
+                    v
+                })).collect::<Vec<_>>(),
+                "consistent": r.curves.iter().map(|c| (c.method.name().to_string(), json!(consistent(c.points.get(1..).unwrap_or(&[]), 0.02)))).collect::<serde_json::Map<_, _>>(),
+            })
+        })
+        .collect();
+    let doc = json!({"machine": machine_description(), "command": cfg.command, "scenes": scenes});
+    std::fs::write(path("json"), serde_json::to_string_pretty(&doc)?)?;
+    written.push(path("json"));
+    let mut csv =
+        String::from("scene,method,repeat,pass,mean_spp,seconds,cpu_seconds,method_seconds,rays,rmse,rel_mse\n");
+    for r in results {
+        for (rep, p) in &r.runs {
+            let _ = writeln!(
+                csv,
+                "{},{},{rep},{},{},{},{},{},{},{},{}",
+                r.name,
+                p.method.name(),
+                p.pass,
+                p.mean_spp,
+                p.seconds,
+                p.cpu_seconds.map_or(String::new(), |c| c.to_string()),
+                p.method_seconds,
+                p.rays,
+                p.rmse,
+                p.rel_mse
+            );
+        }
+    }
+    std::fs::write(path("csv"), csv)?;
+    written.push(path("csv"));
+    std::fs::write(path("md"), markdown(results, cfg))?;
+    written.push(path("md"));
+    for r in results {
+        for (axis, x) in [("spp", (|p: &Point| p.mean_spp) as fn(&Point) -> f64), ("seconds", |p: &Point| p.seconds)] {
+            let series: Vec<Series> = r
+                .curves
+                .iter()
+                .map(|c| Series {
+                    label: c.method.name().to_string(),
+                    points: c.points.iter().map(|p| (x(p), p.rmse)).collect(),
+                })
+                .collect();
+            let title = format!("{}: RMSE vs {axis}", r.name);
+            let stem = cfg.out.join(format!("{}-{}-rmse-vs-{axis}", cfg.name, r.name));
+            let svg = stem.with_extension("svg");
+            std::fs::write(&svg, plot::svg(&title, axis, "RMSE", &series))?;
+            let png = stem.with_extension("png");
+            plot::png(&title, axis, "RMSE", &series).save(&png)?;
+            written.extend([svg, png]);
+        }
+    }
+    Ok(written)
+}
+
+/// Scenes named on the command line: built-in names or scene files.
+pub fn resolve_scenes(names: &[String]) -> anyhow::Result<Vec<(String, proto::Scene)>> {
+    names
+        .iter()
+        .map(|n| {
+            if Path::new(n).is_file() {
+                let s = crate::scene::json::load_scene(Path::new(n))?;
+                let label = Path::new(n).file_stem().map_or(n.clone(), |s| s.to_string_lossy().into_owned());
+                Ok((label, s))
+            } else {
+                crate::scene::builtin::get(n)
+                    .map(|s| (n.clone(), s))
+                    .ok_or_else(|| anyhow::anyhow!("{n}: no scene file or built-in scene of that name"))
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_tiny_benchmark_writes_every_output_and_reuses_its_reference() {
+        let out = std::env::temp_dir().join(format!("wedge-bench-{}", std::process::id()));
+        let cfg = BenchConfig {
+            width: 12,
+            height: 9,
+            reference_spp: 64.0,
+            reference: None,
+            methods: vec![Method::Uniform, Method::Aaf],
+            uniform_passes: 4,
+            passes: 2,
+            repeats: 2,
+            seed: 1,
+            out: out.clone(),
+            name: "t".into(),
+            command: "test".into(),
+        };
+        let scenes = resolve_scenes(&["curved".to_string()]).unwrap();
+        let (name, scene) = scenes.into_iter().next().unwrap();
+        let r = bench_scene(&name, scene.clone(), &cfg).unwrap();
+        assert!(r.reference_note.contains("rendered"));
+        assert_eq!(r.curves.len(), 2);
+        assert_eq!(r.curves[0].points.len(), 4);
+        assert_eq!(r.runs.len(), 2 * (4 + 2));
+        // Uniform's median error falls from 1 to 8 spp.
+        let u = &r.curves[0].points;
+        assert!(u[3].rmse < u[0].rmse);
+        let files = write_outputs(std::slice::from_ref(&r), &cfg).unwrap();
+        assert_eq!(files.len(), 3 + 4);
+        let doc: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("t.json")).unwrap()).unwrap();
+        assert_eq!(doc["scenes"][0]["medians"].as_array().unwrap().len(), 6);
+        assert_eq!(std::fs::read_to_string(out.join("t.csv")).unwrap().lines().count(), 1 + 12);
+        assert!(std::fs::read_to_string(out.join("t.md")).unwrap().contains("| aaf | 1 |"));
+        let again = bench_scene(&name, scene, &cfg).unwrap();
+        assert!(again.reference_note.contains("cached"));
+        std::fs::remove_dir_all(&out).unwrap();
+    }
+}
