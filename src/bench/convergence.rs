@@ -118,9 +118,18 @@ pub fn speedup(base: &[Point], p: &Point) -> (Option<f64>, Option<f64>) {
     )
 }
 
-/// Whether the error keeps falling along the curve (each point within `slack` of the last).
+/// Whether the error keeps falling along the curve: no step rises by more than `slack`, and
+/// over the second half of the curve log(RMSE) falls at least 0.15 per unit of log(spp)
+/// (plain Monte Carlo falls 0.5; a method that stops improving, like a fixed-width filter
+/// whose bias takes over, does not qualify).
 pub fn consistent(points: &[Point], slack: f64) -> bool {
-    points.windows(2).all(|w| w[1].rmse <= w[0].rmse * (1.0 + slack))
+    let monotone = points.windows(2).all(|w| w[1].rmse <= w[0].rmse * (1.0 + slack));
+    let half = &points[points.len() / 2..];
+    let slope = match (half.first(), half.last()) {
+        (Some(a), Some(b)) if b.mean_spp > a.mean_spp => (b.rmse / a.rmse).ln() / (b.mean_spp / a.mean_spp).ln(),
+        _ => return monotone,
+    };
+    monotone && slope <= -0.15
 }
 
 #[cfg(test)]
@@ -151,5 +160,11 @@ mod tests {
         assert!((t.unwrap() - 16.0).abs() < 1e-9, "{t:?}");
         assert_eq!(speedup(&base, &pt(1.0, 1.0, 1e-9)), (None, None));
         assert!(consistent(&base, 0.0));
+        // A plateau (bias taking over) is not consistent, nor is a rise.
+        let plateau: Vec<Point> =
+            (0..6).map(|k| (1u32 << k) as f64).map(|s| pt(s, s, 0.01 + 0.01 / s.sqrt())).collect();
+        assert!(!consistent(&plateau, 0.02));
+        let rising = vec![pt(1.0, 1.0, 0.1), pt(2.0, 2.0, 0.2)];
+        assert!(!consistent(&rising, 0.02));
     }
 }
