@@ -9,7 +9,9 @@ For each wedge scene file (canonical protobuf JSON) this
 1. converts it to a Mitsuba 3 scene (same triangles, camera, BRDFs, emitters, bounces);
 2. renders a high-spp reference with wedge (`wedge render --method uniform`) and with Mitsuba,
    and reports their relative MSE and mean ratio next to each renderer's own noise (the same
-   renderer with another seed): wedge vs Mitsuba must be no larger than the two noises added;
+   renderer with another seed). Two independent noisy images differ by the sum of their
+   variances, so with nothing systematic, wedge vs Mitsuba equals the mean of the two noise
+   columns;
 3. times Mitsuba at increasing spp and reports its RMSE against its own reference, next to
    the same curve for wedge's methods from `wedge bench`, for BENCHMARKS.md.
 

@@ -88,6 +88,21 @@ pub fn prepare(
         mesh_root: limits.mesh_root.clone(),
     };
     let compiled = compile(&scene, &scene_limits, base_dir).map_err(|e| name_override(e, req))?;
+    // The AAF family keeps running sums per pixel and area light (~150 bytes each): bound the
+    // product like the image size, so one request cannot exhaust the server's memory.
+    let area_lights =
+        compiled.lights.iter().filter(|l| matches!(l, crate::render::light::Light::Rect(_))).count() as u64;
+    let pixels = compiled.width() as u64 * compiled.height() as u64;
+    if method != Method::Uniform && pixels * area_lights.max(1) > limits.max_pixels {
+        return err(
+            "settings.method",
+            format!(
+                "{} keeps state per pixel and area light: {pixels} pixels x {area_lights} lights exceeds the limit of {}",
+                method.name(),
+                limits.max_pixels
+            ),
+        );
+    }
     let cam = scene.camera.as_ref().map(camera_info).unwrap_or_default();
     Ok(PreparedJob {
         job: RenderJob {
@@ -350,5 +365,20 @@ mod tests {
         let mut r = builtin_req("cornell");
         r.settings = Some(proto::RenderSettings { bounces: Some(1000), ..Default::default() });
         assert_eq!(field_of(r), "settings.bounces");
+        // AAF state grows with pixels x area lights: bounded like the image. Two lights on a
+        // 32 x 24 image: 1536 pixel-lights against a limit of 1000 pixels (the image fits).
+        let mut scene = builtin::get("curved").unwrap();
+        let light = scene.lights[0];
+        scene.lights.push(light);
+        let mut r = proto::RenderRequest {
+            scene_source: Some(proto::render_request::SceneSource::Scene(scene)),
+            width: 32,
+            height: 24,
+            ..Default::default()
+        };
+        let limits = Limits { max_pixels: 1000, ..Limits::default() };
+        assert!(prepare(&r, &limits, None, "t").is_ok(), "uniform keeps no per-light state");
+        r.settings = Some(proto::RenderSettings { method: proto::Method::Aaf as i32, ..Default::default() });
+        assert_eq!(prepare(&r, &limits, None, "t").err().map(|e| e.field), Some("settings.method".into()));
     }
 }

@@ -55,8 +55,9 @@ proptest! {
         prop_assert!(n.is_finite() && n >= 9.0, "{g:?} mu {mu}: n {n}");
         let b = filter_width(&g, &c, mu);
         prop_assert!(b.is_finite() && b >= 0.0, "{g:?} mu {mu}: beta {b}");
-        // beta never exceeds the light's own reach over the occluder ratio, nor the pixel term.
-        prop_assert!(b <= ((sigma * g.s2).max((1.0 + g.s2) * d) / (3.0 * mu)) * (1.0 + 1e-12));
+        // Doubling mu halves the filter (beta proportional to 1/mu) anywhere in the domain.
+        let b2 = filter_width(&g, &c, 2.0 * mu);
+        prop_assert!((b2 * 2.0 - b).abs() <= 1e-12 * b.max(1e-300), "{g:?} mu {mu}: {b} then {b2}");
     }
 
     #[test]

@@ -29,7 +29,9 @@ impl ReferenceKey<'_> {
         let bytes = self.scene.encode_to_vec();
         let mut words: Vec<u64> =
             bytes.chunks(8).map(|c| c.iter().enumerate().fold(0u64, |w, (i, &b)| w | (b as u64) << (8 * i))).collect();
-        words.extend([bytes.len() as u64, self.bounces as u64, self.spp.to_bits(), self.seed, 0x7265_6665]);
+        // The crate version: a renderer change (a new release) never reuses old references.
+        let version = hash_words(&env!("CARGO_PKG_VERSION").bytes().map(u64::from).collect::<Vec<_>>());
+        words.extend([bytes.len() as u64, self.bounces as u64, self.spp.to_bits(), self.seed, version]);
         format!("{:016x}", hash_words(&words))
     }
 }

@@ -47,7 +47,9 @@ pub enum ShadowMode {
     UniformFiltered,
 }
 
-/// Parameters; the defaults are the paper's (Sec. 6) where it gives them.
+/// Parameters. k, alpha, the 9 sparse samples, the 5-pixel fill and the 20-degree normal check
+/// are the paper's (Sec. 6). The paper renders its images at mu = 2; the progressive stream
+/// starts lower, at mu0 = 1, and passes 1, 2, 3, ... use mu0 * 1, 2, 4, ...
 #[derive(Clone, Debug, PartialEq)]
 pub struct AafOptions {
     pub constants: AafConstants,
@@ -481,8 +483,6 @@ fn sample_pixel(
     let cam = &scene.camera;
     let j = sampler.next_2d();
     let dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
-    // Every light's dimensions are drawn whether used or not, so sample streams stay aligned.
-    let light_u: Vec<[f32; 2]> = lights.iter().map(|_| sampler.next_2d()).collect();
     let mut rays = 1u64;
     let Some(hit) = scene.intersect(cam.position, dir, 0.0) else {
         for (s, &t) in sums.iter_mut().zip(want) {
@@ -497,6 +497,9 @@ fn sample_pixel(
     let brdf = scene.materials[hit.material as usize].brdf(hit.uv);
     let emitter = matches!(scene.materials[hit.material as usize], Material::Emitter { .. });
     for (l, light) in lights.iter().enumerate() {
+        // Every light's dimensions are drawn whether used or not, so sample streams stay
+        // aligned (a missed camera ray draws none, but then nothing else is drawn either).
+        let light_u = sampler.next_2d();
         let s = &mut sums[l];
         if s.n >= want[l] {
             continue;
@@ -510,10 +513,12 @@ fn sample_pixel(
         // faces away from the viewer (silhouettes of smooth-shaded meshes).
         let diffuse = if hit.ns.dot(wo) > 0.0 { brdf.kd * (1.0 / std::f32::consts::PI) } else { Vec3::ZERO };
         let r = diffuse.as_dvec3() * rect.radiance.as_dvec3() * rect.unshadowed_irradiance(hit.p, hit.ns, hit.ng);
-        for c in 0..3 {
-            s.r[c] += r[c];
+        if r.is_finite() {
+            for c in 0..3 {
+                s.r[c] += r[c];
+            }
         }
-        let Some(ls) = rect.sample(hit.p, light_u[l]) else { continue };
+        let Some(ls) = rect.sample(hit.p, light_u) else { continue };
         let cos = hit.ns.dot(ls.wi);
         if cos <= 0.0 || hit.ng.dot(ls.wi) <= 0.0 {
             continue;

@@ -118,9 +118,9 @@ fn the_filtered_stream_converges_to_the_per_pixel_mean() {
 }
 
 #[test]
-fn unshadowed_pixels_equal_plain_monte_carlo_exactly() {
-    // No occluder near the light's path: every pixel is fully lit, visibility is exactly 1,
-    // and the output is the unfiltered estimate, whatever the filter does.
+fn fully_lit_pixels_are_left_unfiltered() {
+    // No occluder near the light's path: every pixel is fully lit, its visibility is exactly 1,
+    // no pixel gets a filter width, and the output equals the unfiltered estimate.
     let scene = shadow_scene(16, 12, 1.0, EmissionProfile::Gaussian, 1, -5.0);
     for fr in frames(&job(scene, Method::Aaf, 3, 5)) {
         let u = fr.unfiltered.as_ref().unwrap();
