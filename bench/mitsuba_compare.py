@@ -258,6 +258,7 @@ def main():
     ap.add_argument("--height", type=int, default=120)
     ap.add_argument("--reference-spp", type=int, default=4096)
     ap.add_argument("--max-spp", type=int, default=256)
+    ap.add_argument("--bounces", type=int, help="override the scenes' indirect bounces")
     args = ap.parse_args()
     print(f"Mitsuba {mi.__version__} ({mi.variant()}), wedge {WEDGE}\n")
     print("| scene | spp | wedge s | Mitsuba s | relative MSE wedge vs Mitsuba | noise: wedge vs wedge | noise: Mitsuba vs Mitsuba | mean ratio wedge/Mitsuba |")
@@ -266,7 +267,7 @@ def main():
     for path in args.scenes:
         scene = json.load(open(path))
         name = os.path.splitext(os.path.basename(path))[0]
-        bounces = scene.get("settings", {}).get("bounces", 0)
+        bounces = args.bounces if args.bounces is not None else scene.get("settings", {}).get("bounces", 0)
         d = to_mitsuba(scene, args.width, args.height, args.reference_spp, bounces)
         out = os.path.join(_tmp, name)
         w, ws = wedge_reference(path, args.width, args.height, args.reference_spp, bounces, out)
