@@ -95,9 +95,10 @@ pub fn separable(pixels: &[FilterPixel], values: &mut [[f64; 3]], width: usize, 
     values.copy_from_slice(&vertical);
 }
 
-/// The same filter as a full 2-D gather over the square window (the reference the separable
-/// form approximates; exact where beta is constant and nothing is rejected).
-pub fn full_2d(pixels: &[FilterPixel], values: &[[f64; 3]], width: usize, o: &FilterOptions) -> Vec<[f64; 3]> {
+/// The same filter as a full 2-D gather over the square window: the test oracle the separable
+/// form approximates (exact where beta is constant and nothing is rejected).
+#[cfg(test)]
+fn full_2d(pixels: &[FilterPixel], values: &[[f64; 3]], width: usize, o: &FilterOptions) -> Vec<[f64; 3]> {
     let height = pixels.len().checked_div(width).unwrap_or(0);
     let cos_min = o.max_normal_angle_deg.to_radians().cos();
     let mut out = values.to_vec();

@@ -134,8 +134,7 @@ impl Default for LightSums {
 #[derive(Clone, Copy, Debug, Default)]
 struct OtherSums {
     sum: [f64; 3],
-    n: u32,
-    /// Camera samples drawn: the next sample index.
+    /// Camera samples drawn: the divisor of `sum` and the next sample index.
     taken: u32,
 }
 
@@ -340,7 +339,7 @@ impl ShadowStrategy {
     fn frame(&self, pass: u32) -> Frame {
         let (w, nl) = (self.width, self.lights.len());
         let n = w * self.height;
-        let mut color: Vec<[f64; 3]> = self.other.iter().map(|o| mean(o.sum, o.n)).collect();
+        let mut color: Vec<[f64; 3]> = self.other.iter().map(|o| mean(o.sum, o.taken)).collect();
         let mut unfiltered = color.clone();
         let mut width_px = vec![0.0f32; n];
         let g = self.gbuffer.as_ref();
@@ -391,7 +390,7 @@ impl ShadowStrategy {
         let spp: Vec<f32> = (0..n)
             .map(|p| {
                 let shadow: u32 = (0..nl).map(|l| self.sums[p * nl + l].n).sum();
-                shadow.max(self.other[p].n) as f32
+                shadow.max(self.other[p].taken) as f32
             })
             .collect();
         let to_f32 = |v: Vec<[f64; 3]>| v.into_iter().map(|c| c.map(|x| x as f32)).collect::<Vec<_>>();
@@ -490,7 +489,6 @@ fn sample_pixel(
                 s.n += 1;
             }
         }
-        other.n += 1;
         return (rays, 0);
     };
     let wo = -dir;
@@ -553,7 +551,6 @@ fn sample_pixel(
     }
     let r = radiance_from(scene, hit, wo, job.bounces, sampler, DirectLights::SkipRect);
     rays += r.rays as u64;
-    other.n += 1;
     if r.radiance.is_finite() {
         for c in 0..3 {
             other.sum[c] += r.radiance[c] as f64;

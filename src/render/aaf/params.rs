@@ -108,8 +108,9 @@ pub fn sample_count(g: &PixelGeometry, c: &AafConstants, mu: f64, n_min: f64) ->
     }
 }
 
-/// Eq. 21 as printed (common case, no min/max active), for tests against the general form.
-pub fn sample_count_eq21(g: &PixelGeometry, c: &AafConstants, mu: f64) -> f64 {
+/// Eq. 21 as printed (common case, no min/max active): the oracle for the general form.
+#[cfg(test)]
+fn sample_count_eq21(g: &PixelGeometry, c: &AafConstants, mu: f64) -> f64 {
     let (ap, al) = (g.d * g.d, 4.0 * g.sigma * g.sigma);
     4.0 * (1.0 + mu * g.s1 / g.s2).powi(2) * (mu * 2.0 / g.s2 * (ap / al).sqrt() + c.alpha / (1.0 + g.s2)).powi(2)
 }
