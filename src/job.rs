@@ -3,7 +3,7 @@
 //! field of the request is checked in one place.
 use crate::proto;
 use crate::render::frame::{CameraInfo, RenderInfo};
-use crate::render::progressive::{Halt, Method, RenderJob};
+use crate::render::progressive::{Halt, Integrand, Method, RenderJob};
 use crate::scene::fields::{enum_value, err, finite, opt_vec3, FieldResult};
 use crate::scene::{builtin, compile, FieldError, SceneLimits};
 use std::path::{Path, PathBuf};
@@ -103,6 +103,7 @@ pub fn prepare(
             ),
         );
     }
+    let integrand = integrand(&settings, compiled.world_scale)?;
     let cam = scene.camera.as_ref().map(camera_info).unwrap_or_default();
     Ok(PreparedJob {
         job: RenderJob {
@@ -113,6 +114,8 @@ pub fn prepare(
             bounces,
             initial_spp,
             aaf: Default::default(),
+            integrand,
+            indirect: Default::default(),
         },
         info: RenderInfo {
             scene: scene_label.to_string(),
@@ -205,8 +208,32 @@ fn merge_settings(scene: Option<&proto::RenderSettings>, req: Option<&proto::Ren
         if r.initial_spp != 0 {
             s.initial_spp = r.initial_spp;
         }
+        if r.ambient_occlusion {
+            s.ambient_occlusion = true;
+        }
+        if r.ambient_occlusion_distance != 0.0 {
+            s.ambient_occlusion_distance = r.ambient_occlusion_distance;
+        }
     }
     s
+}
+
+/// Light or ambient occlusion; the occlusion distance is moved into the scene's internal units
+/// (`world_scale` per scene unit).
+fn integrand(s: &proto::RenderSettings, world_scale: f32) -> FieldResult<Integrand> {
+    let field = "settings.ambient_occlusion_distance";
+    let distance = finite(field, s.ambient_occlusion_distance)?;
+    if distance < 0.0 {
+        return err(field, format!("must be >= 0 (0: no limit), got {distance}"));
+    }
+    if !s.ambient_occlusion {
+        if distance > 0.0 {
+            return err(field, "applies only with settings.ambient_occlusion = true");
+        }
+        return Ok(Integrand::Radiance);
+    }
+    let max_distance = if distance > 0.0 { distance * world_scale } else { f32::INFINITY };
+    Ok(Integrand::AmbientOcclusion { max_distance })
 }
 
 /// The wire enum of a core method.

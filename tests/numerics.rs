@@ -202,6 +202,8 @@ proptest! {
             bounces: 2,
             initial_spp: 1,
             aaf: Default::default(),
+            integrand: Default::default(),
+            indirect: Default::default(),
         };
         let mut last: Option<Frame> = None;
         render(&job, &CancelToken::new(), &mut |f| { last = Some(f.clone()); true }).expect("render");

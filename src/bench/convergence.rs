@@ -40,6 +40,8 @@ pub fn job(
         bounces,
         initial_spp: 1,
         aaf: Default::default(),
+        integrand: Default::default(),
+        indirect: Default::default(),
     }
 }
 

@@ -100,6 +100,13 @@ pub struct RenderArgs {
     /// Samples per pixel of the first pass (uniform method).
     #[arg(long)]
     pub initial_spp: Option<u32>,
+    /// Render ambient occlusion (the open fraction of each visible point's hemisphere)
+    /// instead of light.
+    #[arg(long)]
+    pub ao: bool,
+    /// With --ao: occluders farther than this (scene units) do not count (default: no limit).
+    #[arg(long, requires = "ao")]
+    pub ao_distance: Option<f32>,
     /// Also write every N-th pass (the final frame is always written).
     #[arg(long)]
     pub every: Option<u32>,

@@ -86,6 +86,8 @@ pub fn build_request(args: &RenderArgs, source: SceneSource) -> anyhow::Result<p
             time_budget_seconds: args.time.unwrap_or(0.0),
             bounces: args.bounces,
             initial_spp: args.initial_spp.unwrap_or(0),
+            ambient_occlusion: args.ao,
+            ambient_occlusion_distance: args.ao_distance.unwrap_or(0.0),
         }),
         seed: args.seed,
         // Everything the files need, losslessly.
@@ -94,6 +96,7 @@ pub fn build_request(args: &RenderArgs, source: SceneSource) -> anyhow::Result<p
             spp: true,
             filter_width: true,
             unfiltered: true,
+            components: true,
             format: proto::PixelFormat::F32 as i32,
         }),
         frame_every: 0,

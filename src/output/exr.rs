@@ -123,6 +123,7 @@ pub fn read_exr(path: &Path) -> Result<ExrImage, OutputError> {
             unfiltered,
             spp,
             filter_width,
+            components: Vec::new(),
             stats,
         },
         info,

@@ -1,6 +1,6 @@
 //! Per-pixel running estimates (f64 sums) and the parallel loop that adds samples to them.
-use super::integrator::trace_path;
-use super::progressive::RenderError;
+use super::integrator::{ambient_occlusion, trace_path};
+use super::progressive::{Integrand, RenderError};
 use super::sampler::PixelSampler;
 use super::scene::Scene;
 use super::strategy::StopCheck;
@@ -57,6 +57,7 @@ impl Film {
         scene: &Scene,
         seed: u64,
         bounces: u32,
+        integrand: Integrand,
         count: &(dyn Fn(usize) -> u32 + Sync),
         stop: &StopCheck,
     ) -> Result<Tally, RenderError> {
@@ -81,7 +82,12 @@ impl Film {
                             px.taken += 1;
                             let j = sampler.next_2d();
                             let dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
-                            let p = trace_path(scene, cam.position, dir, bounces, &mut sampler);
+                            let p = match integrand {
+                                Integrand::Radiance => trace_path(scene, cam.position, dir, bounces, &mut sampler),
+                                Integrand::AmbientOcclusion { max_distance } => {
+                                    ambient_occlusion(scene, cam.position, dir, max_distance, &mut sampler)
+                                }
+                            };
                             t.rays += p.rays as u64;
                             if p.radiance.is_finite() {
                                 for c in 0..3 {

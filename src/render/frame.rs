@@ -43,7 +43,20 @@ pub struct Frame {
     /// Filter width (standard deviation, in pixels) used at each pixel; `None` when the method
     /// does not filter (all zero).
     pub filter_width: Option<Vec<f32>>,
+    /// Per-component maps of methods that sample and filter parts of the light separately
+    /// (AAF: `shadow`, `diffuse`, `glossy`); empty for the others. `spp` above is their total.
+    pub components: Vec<ComponentMaps>,
     pub stats: FrameStats,
+}
+
+/// The samples and filter width one component of the light received at each pixel.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ComponentMaps {
+    /// `shadow` (area-light direct light), `diffuse` or `glossy` (indirect light).
+    pub name: String,
+    pub spp: Vec<f32>,
+    /// Filter width (standard deviation, in pixels); `None` when the component is unfiltered.
+    pub filter_width: Option<Vec<f32>>,
 }
 
 impl Frame {

@@ -1,6 +1,7 @@
 //! Radiance along camera rays: next-event estimation from every light plus importance-sampled
 //! bounces. Emitters hit by bounce rays add nothing (their light arrives by next-event
 //! estimation), so no light path is counted twice.
+use super::frame_basis::{cosine_hemisphere, to_world};
 use super::light::Light;
 use super::material::Material;
 use super::sampler::PixelSampler;
@@ -85,6 +86,37 @@ pub fn trace_path(scene: &Scene, origin: Vec3, dir: Vec3, bounces: u32, sampler:
     let mut r = radiance_from(scene, s, -dir, bounces, sampler, DirectLights::All);
     r.rays += 1;
     r
+}
+
+/// One ambient-occlusion sample for the camera ray (origin, dir): 1 when a cosine-distributed
+/// ray from the visible point escapes (meets nothing nearer than `max_distance`), else 0;
+/// 0 where the camera ray meets nothing.
+pub fn ambient_occlusion(
+    scene: &Scene,
+    origin: Vec3,
+    dir: Vec3,
+    max_distance: f32,
+    sampler: &mut PixelSampler,
+) -> PathResult {
+    let Some(s) = scene.intersect(origin, dir, 0.0) else {
+        return PathResult { radiance: Vec3::ZERO, rays: 1 };
+    };
+    let (hit, rays) = occlusion_ray(scene, &s, sampler.next_2d(), max_distance);
+    let open = if hit.is_some() { 0.0 } else { 1.0 };
+    PathResult { radiance: Vec3::splat(open), rays: 1 + rays }
+}
+
+/// Traces the cosine-distributed ray of `u` about the shading normal of `s`: the hit distance
+/// within `max_distance` (None: the ray escapes) and the rays traced. A direction below the
+/// geometric surface (possible where shading and geometric normals differ) counts as a hit at
+/// distance 0: it cannot leave the surface.
+pub fn occlusion_ray(scene: &Scene, s: &Surface, u: [f32; 2], max_distance: f32) -> (Option<f32>, u32) {
+    let wi = to_world(s.ns, cosine_hemisphere(u));
+    if s.ng.dot(wi) <= 0.0 {
+        return (Some(0.0), 0);
+    }
+    let o = s.p + s.ng * Scene::ray_epsilon(s.p);
+    (scene.geometry.intersect(o, wi, 0.0, max_distance).map(|h| h.t), 1)
 }
 
 /// Radiance leaving the first hit `first` towards `wo` (emission, direct light of the lights

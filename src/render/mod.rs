@@ -7,10 +7,12 @@
 pub mod aaf;
 pub mod camera;
 pub mod film;
+pub mod filter;
 pub mod frame;
 pub mod frame_basis;
 pub mod gbuffer;
 pub mod geometry;
+pub mod indirect;
 pub mod integrator;
 pub mod light;
 pub mod material;

@@ -70,6 +70,18 @@ impl Method {
     }
 }
 
+/// What a render estimates at each pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum Integrand {
+    /// Light arriving at the camera.
+    #[default]
+    Radiance,
+    /// Ambient occlusion: the fraction of the cosine-weighted hemisphere above the visible
+    /// point that no geometry nearer than `max_distance` (internal units; infinite for no
+    /// limit) covers. The AAF indirect paper's extension (Sec. 6) with reflector radiance 1.
+    AmbientOcclusion { max_distance: f32 },
+}
+
 #[derive(Clone, Debug)]
 pub struct RenderJob {
     pub scene: Arc<Scene>,
@@ -80,8 +92,12 @@ pub struct RenderJob {
     pub bounces: u32,
     /// Samples per pixel of the first uniform pass.
     pub initial_spp: u32,
-    /// Parameters of the AAF family of methods.
+    /// Light or ambient occlusion.
+    pub integrand: Integrand,
+    /// Parameters of the AAF family of methods (soft shadows).
     pub aaf: crate::render::aaf::AafOptions,
+    /// Parameters of the AAF family of methods (indirect light).
+    pub indirect: crate::render::indirect::IndirectOptions,
 }
 
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

@@ -32,7 +32,7 @@ impl Strategy for Uniform {
     fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError> {
         let job = ctx.job;
         let k = Self::pass_spp(job.initial_spp, ctx.pass, self.spp, job.halt.max_mean_spp);
-        let tally = self.film.add_samples(ctx.scene, job.seed, job.bounces, &|_| k, ctx.stop)?;
+        let tally = self.film.add_samples(ctx.scene, job.seed, job.bounces, job.integrand, &|_| k, ctx.stop)?;
         self.spp += k as u64;
         self.rays += tally.rays;
         self.dropped += tally.dropped;
@@ -43,6 +43,7 @@ impl Strategy for Uniform {
             unfiltered: None,
             spp: self.film.spp_map(),
             filter_width: None,
+            components: Vec::new(),
             stats: FrameStats {
                 // Samples drawn, including any dropped as non-finite (the spp map counts the
                 // ones kept), so a dropped sample cannot keep the spp halt from firing.

@@ -430,6 +430,7 @@ impl FrameAssembler {
             unfiltered: None,
             spp: vec![0.0; n],
             filter_width: None,
+            components: Vec::new(),
             stats: FrameStats {
                 pass: fc.pass,
                 mean_spp: fc.mean_spp,

@@ -17,11 +17,12 @@
 //! the irradiance from the light's centre, and the visibility weights include the cosine and
 //! distance terms (the paper's "cosine falloff folded into l(y)", Sec. 3 and 7). The glossy
 //! part of area lights' direct light is added unfiltered, as the paper assumes a separate
-//! specular pass; so are point lights, emission and indirect bounces.
-pub mod filter;
+//! specular pass; so are point lights and emission. Indirect light is not this strategy's: the
+//! indirect strategy adds it (`strategy::make_strategy`).
 pub mod params;
 
-use super::frame::{Frame, FrameStats};
+use super::filter::{self, FilterOptions, FilterPixel};
+use super::frame::{ComponentMaps, Frame, FrameStats};
 use super::gbuffer::GBuffer;
 use super::integrator::{radiance_from, DirectLights};
 use super::light::{EmissionProfile, Light, RectLight};
@@ -29,23 +30,11 @@ use super::material::Material;
 use super::progressive::{RenderError, RenderJob};
 use super::sampler::PixelSampler;
 use super::scene::Scene;
-use super::strategy::{PassContext, PassOutput, Strategy};
-use filter::{FilterOptions, FilterPixel};
-use glam::{DVec2, Vec3};
+use super::strategy::{FilterMode, PassContext, PassOutput, Strategy};
+use glam::{DVec3, Vec3};
 use params::{filter_width, sample_count, slope, AafConstants, PixelGeometry};
 use rayon::prelude::*;
 use std::time::Instant;
-
-/// What the strategy does with its samples (the curves of the paper's Fig. 6c).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ShadowMode {
-    /// Adaptive sampling and adaptive filtering: the method.
-    Aaf,
-    /// AAF's sample counts, no filter.
-    Adaptive,
-    /// The same samples everywhere (doubling per pass) and a fixed-width filter.
-    UniformFiltered,
-}
 
 /// Parameters. k, alpha, the 9 sparse samples, the 5-pixel fill and the 20-degree normal check
 /// are the paper's (Sec. 6). The paper renders its images at mu = 2; the progressive stream
@@ -143,7 +132,7 @@ struct OtherSums {
 const MAX_SLOPE: f64 = 1e9;
 
 pub struct ShadowStrategy {
-    mode: ShadowMode,
+    mode: FilterMode,
     opts: AafOptions,
     width: usize,
     height: usize,
@@ -162,7 +151,7 @@ pub struct ShadowStrategy {
 }
 
 impl ShadowStrategy {
-    pub fn new(job: &RenderJob, mode: ShadowMode) -> Self {
+    pub fn new(job: &RenderJob, mode: FilterMode) -> Self {
         let lights = job
             .scene
             .lights
@@ -235,8 +224,8 @@ impl ShadowStrategy {
             .map(|k| {
                 let (pixel, l) = (k / nl, k % nl);
                 match self.mode {
-                    ShadowMode::UniformFiltered => sparse.saturating_mul(1u32 << pass.min(20)),
-                    ShadowMode::Aaf | ShadowMode::Adaptive => {
+                    FilterMode::UniformFiltered => sparse.saturating_mul(1u32 << pass.min(20)),
+                    FilterMode::Aaf | FilterMode::Adaptive => {
                         let light = &self.lights[l];
                         let mu = self.mu(pass) * light.mu_scale;
                         // Camera samples are jittered over the pixel (antialiasing, textures),
@@ -279,7 +268,7 @@ impl ShadowStrategy {
                         let mut sampler = PixelSampler::new(job.seed, (y * w + x) as u32, px.taken);
                         px.taken += 1;
                         let (r, d) =
-                            sample_pixel(scene, job, lights, x, y, &mut sampler, sums, want, px, record_slopes);
+                            sample_pixel(scene, lights, x, y, &mut sampler, sums, want, px, record_slopes);
                         rays += r;
                         dropped += d;
                     }
@@ -346,7 +335,7 @@ impl ShadowStrategy {
         for (l, light) in self.lights.iter().enumerate() {
             let at = |p: usize| &self.sums[p * nl + l];
             let mut vis: Vec<[f64; 3]> = (0..n).map(|p| ratio(at(p).a, at(p).b)).collect();
-            if self.mode != ShadowMode::Adaptive {
+            if self.mode != FilterMode::Adaptive {
                 let mu = self.mu(pass) * light.mu_scale;
                 let pixels: Vec<FilterPixel> = (0..n)
                     .map(|p| {
@@ -354,7 +343,7 @@ impl ShadowStrategy {
                         let valid = gp.is_some_and(|s| s.is_valid()) && at(p).b.iter().any(|&b| b > 0.0);
                         let beta = match (self.mode, self.slopes.get(p * nl + l).copied().flatten()) {
                             _ if !valid => 0.0,
-                            (ShadowMode::UniformFiltered, _) => self.opts.fixed_filter_px * self.d[p],
+                            (FilterMode::UniformFiltered, _) => self.opts.fixed_filter_px * self.d[p],
                             (_, Some((s1, s2))) => filter_width(
                                 &PixelGeometry { s1, s2, sigma: light.sigma, d: self.d[p] },
                                 &self.opts.constants,
@@ -367,7 +356,7 @@ impl ShadowStrategy {
                         }
                         let pos = gp.map_or(Vec3::ZERO, |s| s.position) - light.corner;
                         FilterPixel {
-                            plane: DVec2::new(pos.dot(light.axis_u) as f64, pos.dot(light.axis_v) as f64),
+                            position: DVec3::new(pos.dot(light.axis_u) as f64, pos.dot(light.axis_v) as f64, 0.0),
                             normal: gp.map_or(Vec3::ZERO, |s| s.normal),
                             object: gp.map_or(u32::MAX, |s| s.object),
                             valid,
@@ -394,7 +383,7 @@ impl ShadowStrategy {
             })
             .collect();
         let to_f32 = |v: Vec<[f64; 3]>| v.into_iter().map(|c| c.map(|x| x as f32)).collect::<Vec<_>>();
-        let filters = self.mode != ShadowMode::Adaptive;
+        let filters = self.mode != FilterMode::Adaptive;
         Frame {
             width: self.width as u32,
             height: self.height as u32,
@@ -407,6 +396,11 @@ impl ShadowStrategy {
                 method_seconds: self.method_seconds,
                 ..FrameStats::default()
             },
+            components: vec![ComponentMaps {
+                name: "shadow".to_string(),
+                spp: (0..n).map(|p| (0..nl).map(|l| self.sums[p * nl + l].n).sum::<u32>() as f32).collect(),
+                filter_width: filters.then(|| width_px.clone()),
+            }],
             spp,
             filter_width: filters.then_some(width_px),
         }
@@ -469,7 +463,6 @@ fn ratio(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 #[allow(clippy::too_many_arguments)]
 fn sample_pixel(
     scene: &Scene,
-    job: &RenderJob,
     lights: &[ShadowLight],
     x: usize,
     y: usize,
@@ -549,7 +542,8 @@ fn sample_pixel(
             }
         }
     }
-    let r = radiance_from(scene, hit, wo, job.bounces, sampler, DirectLights::SkipRect);
+    // Indirect light is the indirect strategy's part (see `strategy::make_strategy`).
+    let r = radiance_from(scene, hit, wo, 0, sampler, DirectLights::SkipRect);
     rays += r.rays as u64;
     if r.radiance.is_finite() {
         for c in 0..3 {

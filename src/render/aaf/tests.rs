@@ -55,6 +55,8 @@ fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64) -> RenderJob {
         bounces: 0,
         initial_spp: 1,
         aaf: AafOptions::default(),
+        integrand: Default::default(),
+        indirect: Default::default(),
     }
 }
 

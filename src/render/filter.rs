@@ -1,16 +1,20 @@
-//! The screen-space filter of AAF (Mehta et al. 2012, Eqs. 10-12 and Sec. 6): a Gaussian
-//! gather per pixel with the centre pixel's width beta, over world distances measured in the
-//! light's plane (Eq. 12: motion along the light normal is excluded), separable into a
-//! horizontal and a vertical 1-D pass. Neighbours whose normal differs too much (or, as an
-//! option, whose object differs) are left out; the centre always counts with weight 1, so the
-//! weights never sum to zero (methods.md §0.2).
-use glam::{DVec2, Vec3};
+//! The screen-space filter of both AAF papers: a Gaussian gather per pixel with the centre
+//! pixel's width beta over world distances, separable into a horizontal and a vertical 1-D pass
+//! (Mehta et al. 2012, Eqs. 10-12 and Sec. 6; Mehta et al. 2013, Eq. 16 and Sec. 5). The
+//! caller chooses the coordinates distances are measured in: the light plane for soft shadows
+//! (2012 Eq. 12: offsets along the light normal do not count, third coordinate 0), the world
+//! for indirect light. Neighbours whose normal differs too much (or, as an option, whose object
+//! differs) are left out; the centre always counts with weight 1, so the weights never sum to
+//! zero (methods.md §0.2). Rows are filtered in parallel; the result does not depend on the
+//! thread count.
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
 
 /// One pixel as the filter sees it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FilterPixel {
-    /// Position in the light plane's 2-D coordinates.
-    pub plane: DVec2,
+    /// Position in the coordinates distances are measured in (see the module comment).
+    pub position: DVec3,
     pub normal: Vec3,
     pub object: u32,
     /// Whether this pixel has a value to contribute (a valid hit that receives this light).
@@ -30,11 +34,14 @@ pub struct FilterOptions {
     pub object_id_check: bool,
     /// Kernel radius cap in pixels (the radius is ceil(3 beta / d) otherwise).
     pub max_radius: u32,
+    /// Measure distances in the centre's tangent plane, |D|^2 - (D.n)^2, as the authors' AAF
+    /// indirect code did; the papers use the plain distance.
+    pub tangent_plane: bool,
 }
 
 impl Default for FilterOptions {
     fn default() -> Self {
-        FilterOptions { max_normal_angle_deg: 20.0, object_id_check: false, max_radius: 32 }
+        FilterOptions { max_normal_angle_deg: 20.0, object_id_check: false, max_radius: 32, tangent_plane: false }
     }
 }
 
@@ -51,7 +58,11 @@ fn weight(c: &FilterPixel, j: &FilterPixel, cos_min: f32, o: &FilterOptions) -> 
     if !j.valid || c.normal.dot(j.normal) < cos_min || (o.object_id_check && c.object != j.object) {
         return 0.0;
     }
-    let d2 = (c.plane - j.plane).length_squared();
+    let delta = c.position - j.position;
+    let mut d2 = delta.length_squared();
+    if o.tangent_plane {
+        d2 = (d2 - delta.dot(c.normal.as_dvec3()).powi(2)).max(0.0);
+    }
     (-d2 / (2.0 * c.beta * c.beta)).exp()
 }
 
@@ -62,8 +73,10 @@ pub fn separable(pixels: &[FilterPixel], values: &mut [[f64; 3]], width: usize, 
     let cos_min = o.max_normal_angle_deg.to_radians().cos();
     let pass = |src: &[[f64; 3]], dx: i64, dy: i64| -> Vec<[f64; 3]> {
         let mut out = src.to_vec();
-        for y in 0..height as i64 {
-            for x in 0..width as i64 {
+        out.par_chunks_mut(width.max(1)).enumerate().for_each(|(y, row)| {
+            let y = y as i64;
+            for (x, out_px) in row.iter_mut().enumerate() {
+                let x = x as i64;
                 let i = (y * width as i64 + x) as usize;
                 let c = &pixels[i];
                 let r = radius(c, o);
@@ -85,9 +98,9 @@ pub fn separable(pixels: &[FilterPixel], values: &mut [[f64; 3]], width: usize, 
                         wsum += w;
                     }
                 }
-                out[i] = sum.map(|s| s / wsum);
+                *out_px = sum.map(|s| s / wsum);
             }
-        }
+        });
         out
     };
     let horizontal = pass(values, 1, 0);
@@ -136,7 +149,7 @@ mod tests {
     fn plane(w: usize, h: usize, spacing: f64, beta_px: f64) -> Vec<FilterPixel> {
         (0..w * h)
             .map(|i| FilterPixel {
-                plane: DVec2::new((i % w) as f64, (i / w) as f64) * spacing,
+                position: DVec3::new((i % w) as f64, (i / w) as f64, 0.0) * spacing,
                 normal: Vec3::Z,
                 object: 0,
                 valid: true,
@@ -239,8 +252,12 @@ mod tests {
     fn distance_along_the_light_normal_does_not_count() {
         // Two pixels with the same light-plane coordinates are full neighbours whatever their
         // depth below the light: the filter only sees plane coordinates (Eq. 12).
-        let a = FilterPixel { plane: DVec2::new(0.0, 0.0), normal: Vec3::Z, object: 0, valid: true, beta: 1.0, d: 1.0 };
+        let a = FilterPixel { position: DVec3::ZERO, normal: Vec3::Z, object: 0, valid: true, beta: 1.0, d: 1.0 };
         let o = FilterOptions::default();
         assert_eq!(weight(&a, &a, 0.9, &o), 1.0);
+        // The tangent-plane option drops the offset along the centre's normal.
+        let b = FilterPixel { position: DVec3::new(0.0, 0.0, 5.0), ..a };
+        assert!(weight(&a, &b, 0.9, &o) < 1e-5);
+        assert_eq!(weight(&a, &b, 0.9, &FilterOptions { tangent_plane: true, ..o }), 1.0);
     }
 }

@@ -1,0 +1,583 @@
+//! Axis-aligned filtering of indirect light (Mehta, Wang, Ramamoorthi, Durand 2013) as a
+//! progressive strategy, with the baselines of the soft-shadow paper's Fig. 6 as modes of the
+//! same code, and the paper's ambient-occlusion extension (Sec. 6).
+//!
+//! The indirect light leaving a pixel is kd * D + ks * S (Sec. 5): D, the incident indirect
+//! light under the cosine lobe (one cosine-sampled ray per sample: its radiance), and S, under
+//! the glossy lobe (one lobe-sampled ray: radiance * lobe * cos / pdf), both without textures.
+//! Each is averaged per pixel, filtered with its own width (Eqs. 15-16; 10-degree normal check,
+//! world distances) and modulated by the pixel's kd or ks.
+//!
+//! Pass 0 traces 16 samples per pixel (Sec. 5's initial rays, drawn from the same distribution
+//! as later ones and kept, so reusing them adds no bias); their cosine rays give z_min and
+//! z_max (hits only; z_min clamped to 2% of the scene's largest dimension). Pass k >= 1 uses
+//! mu = mu0 * 2^(k-1) and tops each pixel and component up to n(mu) of Eq. 21, clamped to
+//! [16, 100 mu].
+//!
+//! Departures from the paper, each for the same reason as in the soft-shadow strategy (the
+//! stream converges to the same ground truth as `uniform`, antialiasing included):
+//! - Every sample has its own jittered camera ray, so a pixel's kd varies over its samples.
+//!   With K the mean of kd over the samples, Dbar the mean D over the samples that hit a
+//!   reflecting surface and P the mean of kd * D, the output is K * filter(Dbar) + (P - K Dbar):
+//!   the filter acts on untextured light as in the paper, and the correction, zero wherever kd
+//!   is constant over the pixel, makes the unfiltered limit exactly the Monte Carlo mean P.
+//! - Pixels whose initial rays all miss have no indirect light to filter (no environment
+//!   light in wedge): they stay unfiltered, and their count grows as 16 mu / mu0 so that they
+//!   converge too. Pixels with reflectors also never fall below that floor.
+//! - The filter standard deviation can be scaled (`kernel_scale`): the authors' code used an
+//!   effective beta / 4; the default is the paper's beta.
+pub mod params;
+
+use super::filter::{self, FilterOptions, FilterPixel};
+use super::frame::{ComponentMaps, Frame, FrameStats};
+use super::frame_basis::{cosine_hemisphere, to_world};
+use super::gbuffer::GBuffer;
+use super::integrator::{direct_light, emitted, occlusion_ray, radiance_from, DirectLights};
+use super::material::{GlossyModel, Material};
+use super::progressive::{Integrand, RenderError, RenderJob};
+use super::sampler::{hash_words, PixelSampler};
+use super::scene::{Scene, Surface};
+use super::strategy::{FilterMode, PassContext, PassOutput, Strategy};
+use glam::{DVec3, Vec3};
+use params::{clamp_samples, filter_width, gamma_glossy, omega_h_glossy, sample_count, IndirectConstants, Reflectors};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Parameters; the defaults are the paper's (Sec. 4-6).
+#[derive(Clone, Debug, PartialEq)]
+pub struct IndirectOptions {
+    pub constants: IndirectConstants,
+    /// Filter scale of passes 0 and 1; pass k >= 1 uses mu0 * 2^(k-1) (the paper renders its
+    /// images at 0.9).
+    pub mu0: f64,
+    /// Samples per pixel of pass 0 (Sec. 5: 16, stratified 4 x 4 by the Sobol sampler).
+    pub initial_samples: u32,
+    /// Multiplies the filter's standard deviation (1: the paper; 0.25: the authors' code).
+    pub kernel_scale: f64,
+    /// Divide the projected pixel size by |n . view| (the paper's d "accounts for
+    /// foreshortening", footnote 7); the authors' code left it out.
+    pub foreshortening: bool,
+    /// 10-degree normal threshold (Sec. 6), world distances, radius up to 50 pixels.
+    pub filter: FilterOptions,
+    /// Filter width in pixels of the `uniform-filtered` baseline.
+    pub fixed_filter_px: f64,
+}
+
+impl Default for IndirectOptions {
+    fn default() -> Self {
+        IndirectOptions {
+            constants: IndirectConstants::default(),
+            mu0: 0.9,
+            initial_samples: 16,
+            kernel_scale: 1.0,
+            foreshortening: true,
+            filter: FilterOptions { max_normal_angle_deg: 10.0, object_id_check: false, max_radius: 50, tangent_plane: false },
+            fixed_filter_px: 4.0,
+        }
+    }
+}
+
+/// The running sums of one component (diffuse or glossy) of one pixel.
+#[derive(Clone, Copy, Debug, Default)]
+struct ComponentSums {
+    /// Camera samples that drew this component.
+    n: u32,
+    /// Of those, the ones that hit a surface reflecting this component (kd or ks non-zero).
+    surface: u32,
+    /// Sum of the untextured light (D or S) over the `surface` samples.
+    light: [f64; 3],
+    /// Sum of the reflectance (kd or ks; 0 where the sample hit nothing reflecting) over n.
+    reflectance: [f64; 3],
+    /// Sum of reflectance * light over n: the plain Monte Carlo estimate's numerator.
+    product: [f64; 3],
+}
+
+impl ComponentSums {
+    fn add(&mut self, reflectance: Vec3, light: Option<Vec3>) {
+        self.n += 1;
+        let Some(l) = light else { return };
+        self.surface += 1;
+        for c in 0..3 {
+            self.light[c] += l[c] as f64;
+            self.reflectance[c] += reflectance[c] as f64;
+            self.product[c] += (reflectance[c] * l[c]) as f64;
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct PixelSums {
+    /// Camera samples drawn: the divisor of `direct` and the next sample index.
+    taken: u32,
+    /// Emission and direct light of the samples (only when this strategy owns direct light).
+    direct: [f64; 3],
+    diffuse: ComponentSums,
+    glossy: ComponentSums,
+    /// Nearest and farthest reflector hit by the initial cosine rays (internal units).
+    z_min: f32,
+    z_max: f32,
+}
+
+impl Default for PixelSums {
+    fn default() -> Self {
+        PixelSums {
+            taken: 0,
+            direct: [0.0; 3],
+            diffuse: ComponentSums::default(),
+            glossy: ComponentSums::default(),
+            z_min: f32::INFINITY,
+            z_max: 0.0,
+        }
+    }
+}
+
+/// Which component a per-component computation is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Part {
+    Diffuse,
+    Glossy,
+}
+
+impl Part {
+    fn of(self, p: &PixelSums) -> &ComponentSums {
+        match self {
+            Part::Diffuse => &p.diffuse,
+            Part::Glossy => &p.glossy,
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Part::Diffuse => "diffuse",
+            Part::Glossy => "glossy",
+        }
+    }
+}
+
+pub struct IndirectStrategy {
+    mode: FilterMode,
+    opts: IndirectOptions,
+    /// Whether emission and direct light at the first hit are this strategy's to add (false
+    /// when the soft-shadow strategy runs beside it and owns them).
+    owns_direct: bool,
+    /// Whether any material has a glossy lobe: otherwise there is no glossy component.
+    glossy: bool,
+    width: usize,
+    height: usize,
+    gbuffer: Option<GBuffer>,
+    sums: Vec<PixelSums>,
+    /// Projected pixel size per pixel.
+    d: Vec<f64>,
+    seed: u64,
+    rays: u64,
+    dropped: u64,
+    method_seconds: f64,
+}
+
+/// Random stream of this strategy, apart from the soft-shadow strategy's (both start at
+/// sample index 0 of the same pixels).
+const STREAM: u64 = 0x696e_6469_7265_6374;
+
+impl IndirectStrategy {
+    pub fn new(job: &RenderJob, mode: FilterMode, owns_direct: bool) -> Self {
+        let ao = matches!(job.integrand, Integrand::AmbientOcclusion { .. });
+        let glossy = !ao
+            && job.scene.materials.iter().any(|m| match m {
+                Material::Glossy { specular, .. } => specular.values().iter().any(|v| *v != Vec3::ZERO),
+                _ => false,
+            });
+        IndirectStrategy {
+            mode,
+            opts: job.indirect.clone(),
+            owns_direct: owns_direct && !ao,
+            glossy,
+            width: job.scene.width() as usize,
+            height: job.scene.height() as usize,
+            gbuffer: None,
+            sums: Vec::new(),
+            d: Vec::new(),
+            seed: hash_words(&[job.seed, STREAM]),
+            rays: 0,
+            dropped: 0,
+            method_seconds: 0.0,
+        }
+    }
+
+    fn parts(&self) -> &'static [Part] {
+        if self.glossy {
+            &[Part::Diffuse, Part::Glossy]
+        } else {
+            &[Part::Diffuse]
+        }
+    }
+
+    /// mu of pass `pass` (passes 0 and 1 share mu0).
+    fn mu(&self, pass: u32) -> f64 {
+        self.opts.mu0 * 2f64.powi(pass.saturating_sub(1).min(60) as i32)
+    }
+
+    fn setup(&mut self, scene: &Scene) {
+        let g = GBuffer::build(scene);
+        self.rays += (self.width * self.height) as u64;
+        let cam = scene.camera.position;
+        self.d = g
+            .pixels
+            .iter()
+            .map(|p| {
+                if !p.is_valid() {
+                    return 0.0;
+                }
+                let d = p.pixel_size as f64;
+                if self.opts.foreshortening {
+                    let view = (cam - p.position).normalize_or_zero();
+                    d / (p.normal.dot(view).abs() as f64).max(0.1)
+                } else {
+                    d
+                }
+            })
+            .collect();
+        self.sums = vec![PixelSums::default(); self.width * self.height];
+        self.gbuffer = Some(g);
+    }
+
+    /// The reflector distances and bandlimit of pixel `p` for `part`; None when its initial
+    /// rays found no reflector (or it sees nothing): no filter, the floor count.
+    fn reflectors(&self, scene: &Scene, p: usize, part: Part) -> Option<Reflectors> {
+        let g = self.gbuffer.as_ref()?.pixels[p];
+        let s = &self.sums[p];
+        if !g.is_valid() || !s.z_min.is_finite() || !(self.d[p] > 0.0) {
+            return None;
+        }
+        let c = &self.opts.constants;
+        let z_min = (s.z_min as f64).max(c.z_min_fraction * scene.max_extent() as f64);
+        let omega_h = match part {
+            Part::Diffuse => c.omega_h_diffuse,
+            Part::Glossy => omega_h_glossy(glossy_model(scene, g.material), g.exponent as f64, c),
+        };
+        Some(Reflectors { z_min, z_max: (s.z_max as f64).max(z_min), omega_h, d: self.d[p] })
+    }
+
+    /// Samples each pixel should have of each component after pass `pass`: (diffuse, glossy).
+    fn targets(&self, scene: &Scene, pass: u32) -> Vec<(u32, u32)> {
+        let initial = self.opts.initial_samples.max(1);
+        if pass == 0 {
+            return vec![(initial, if self.glossy { initial } else { 0 }); self.sums.len()];
+        }
+        let mu = self.mu(pass);
+        let floor = (initial as f64 * (mu / self.opts.mu0).max(1.0)).ceil() as u32;
+        let g = self.gbuffer.as_ref();
+        (0..self.sums.len())
+            .into_par_iter()
+            .map(|p| {
+                let s = &self.sums[p];
+                let count = |part: Part| -> u32 {
+                    let have = part.of(s).n;
+                    if self.mode == FilterMode::UniformFiltered {
+                        return initial.saturating_mul(1u32 << pass.min(20)).max(have);
+                    }
+                    let Some(r) = self.reflectors(scene, p, part) else { return floor.max(have) };
+                    let c = &self.opts.constants;
+                    let gamma = match part {
+                        Part::Diffuse => c.gamma_diffuse,
+                        Part::Glossy => gamma_glossy(g.map_or(0.0, |g| g.pixels[p].exponent as f64)),
+                    };
+                    let n = clamp_samples(sample_count(&r, c, mu, gamma), c, mu);
+                    (n.ceil() as u32).max(floor).max(have)
+                };
+                let gp = g.map(|g| g.pixels[p]);
+                let (has_kd, has_ks) = gp.map_or((false, false), |g| (g.kd != Vec3::ZERO, g.ks != Vec3::ZERO));
+                let nd = count(Part::Diffuse);
+                if !self.glossy {
+                    return (nd, 0);
+                }
+                let ns = count(Part::Glossy);
+                // A component the pixel centre does not reflect takes the other's count: its
+                // samples then come with camera rays traced anyway (edges still get both).
+                match (has_kd, has_ks) {
+                    (true, false) => (nd, nd.max(s.glossy.n)),
+                    (false, true) => (ns.max(s.diffuse.n), ns),
+                    _ => (nd, ns),
+                }
+            })
+            .collect()
+    }
+
+    /// Traces the samples each pixel still needs to reach `targets`.
+    fn trace(&mut self, ctx: &PassContext, targets: &[(u32, u32)], record_z: bool) -> Result<bool, RenderError> {
+        let (scene, job) = (ctx.scene, ctx.job);
+        let w = self.width;
+        let (seed, owns_direct) = (self.seed, self.owns_direct);
+        let results: Vec<(u64, u64, bool)> = self
+            .sums
+            .par_chunks_mut(w.max(1))
+            .zip(targets.par_chunks(w.max(1)))
+            .enumerate()
+            .map(|(y, (row, want_row))| {
+                let (mut rays, mut dropped) = (0u64, 0u64);
+                for (x, (px, &(nd, ns))) in row.iter_mut().zip(want_row).enumerate() {
+                    if ctx.stop.should_stop() {
+                        return (rays, dropped, false);
+                    }
+                    while px.diffuse.n < nd || px.glossy.n < ns {
+                        let mut sampler = PixelSampler::new(seed, (y * w + x) as u32, px.taken);
+                        px.taken += 1;
+                        let want = (px.diffuse.n < nd, px.glossy.n < ns);
+                        let s = Sample { scene, job, owns_direct, record_z, want };
+                        let (r, d) = s.run(x, y, &mut sampler, px);
+                        rays += r;
+                        dropped += d;
+                    }
+                }
+                (rays, dropped, true)
+            })
+            .collect();
+        if ctx.stop.is_cancelled() {
+            return Err(RenderError::Cancelled);
+        }
+        for (r, d, _) in &results {
+            self.rays += r;
+            self.dropped += d;
+        }
+        Ok(results.iter().all(|r| r.2))
+    }
+
+    /// Builds the frame of pass `pass`: filters each component and composes.
+    fn frame(&self, scene: &Scene, pass: u32) -> Frame {
+        let n = self.width * self.height;
+        let mut color: Vec<[f64; 3]> = self.sums.iter().map(|s| mean(s.direct, s.taken)).collect();
+        let mut unfiltered = color.clone();
+        let mut width_px = vec![0.0f32; n];
+        let mut components = Vec::new();
+        let filters = self.mode != FilterMode::Adaptive;
+        let g = self.gbuffer.as_ref();
+        for &part in self.parts() {
+            let at = |p: usize| part.of(&self.sums[p]);
+            let light_mean = |p: usize| mean(at(p).light, at(p).surface);
+            let mut light: Vec<[f64; 3]> = (0..n).map(light_mean).collect();
+            let mut part_width = vec![0.0f32; n];
+            if filters {
+                let mu = self.mu(pass);
+                let pixels: Vec<FilterPixel> = (0..n)
+                    .into_par_iter()
+                    .map(|p| {
+                        let gp = g.map(|g| g.pixels[p]);
+                        let valid = gp.is_some_and(|s| s.is_valid()) && at(p).surface > 0;
+                        let beta = if !valid {
+                            0.0
+                        } else if self.mode == FilterMode::UniformFiltered {
+                            self.opts.fixed_filter_px * self.d[p]
+                        } else {
+                            self.reflectors(scene, p, part).map_or(0.0, |r| {
+                                filter_width(&r, &self.opts.constants, mu) * self.opts.kernel_scale
+                            })
+                        };
+                        FilterPixel {
+                            position: gp.map_or(DVec3::ZERO, |s| s.position.as_dvec3()),
+                            normal: gp.map_or(Vec3::ZERO, |s| s.normal),
+                            object: gp.map_or(u32::MAX, |s| s.object),
+                            valid,
+                            beta,
+                            d: self.d[p],
+                        }
+                    })
+                    .collect();
+                for (p, fp) in pixels.iter().enumerate() {
+                    if fp.beta > 0.0 && fp.d > 0.0 {
+                        part_width[p] = (fp.beta / fp.d) as f32;
+                        width_px[p] = width_px[p].max(part_width[p]);
+                    }
+                }
+                filter::separable(&pixels, &mut light, self.width, &self.opts.filter);
+            }
+            for p in 0..n {
+                let s = at(p);
+                let (k, raw, prod) = (mean(s.reflectance, s.n), light_mean(p), mean(s.product, s.n));
+                for c in 0..3 {
+                    // K filter(Dbar) + (P - K Dbar): see the module comment.
+                    color[p][c] += k[c] * light[p][c] + (prod[c] - k[c] * raw[c]);
+                    unfiltered[p][c] += prod[c];
+                }
+            }
+            components.push(ComponentMaps {
+                name: part.name().to_string(),
+                spp: (0..n).map(|p| at(p).n as f32).collect(),
+                filter_width: filters.then_some(part_width),
+            });
+        }
+        let spp: Vec<f32> = self.sums.iter().map(|s| s.taken as f32).collect();
+        let to_f32 = |v: Vec<[f64; 3]>| v.into_iter().map(|c| c.map(|x| x.max(0.0) as f32)).collect::<Vec<_>>();
+        Frame {
+            width: self.width as u32,
+            height: self.height as u32,
+            color: to_f32(color),
+            unfiltered: filters.then(|| to_f32(unfiltered)),
+            stats: FrameStats {
+                mean_spp: spp.iter().map(|&s| s as f64).sum::<f64>() / n.max(1) as f64,
+                rays_traced: self.rays,
+                dropped_samples: self.dropped,
+                method_seconds: self.method_seconds,
+                ..FrameStats::default()
+            },
+            spp,
+            filter_width: filters.then_some(width_px),
+            components,
+        }
+    }
+}
+
+impl Strategy for IndirectStrategy {
+    fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError> {
+        if ctx.pass == 0 {
+            self.setup(ctx.scene);
+        }
+        let t = Instant::now();
+        let targets = self.targets(ctx.scene, ctx.pass);
+        self.method_seconds += t.elapsed().as_secs_f64();
+        let complete = self.trace(ctx, &targets, ctx.pass == 0)?;
+        let t = Instant::now();
+        let mut frame = self.frame(ctx.scene, ctx.pass);
+        self.method_seconds += t.elapsed().as_secs_f64();
+        frame.stats.method_seconds = self.method_seconds;
+        Ok(PassOutput { frame, complete })
+    }
+}
+
+fn glossy_model(scene: &Scene, material: u32) -> GlossyModel {
+    match scene.materials.get(material as usize) {
+        Some(Material::Glossy { model, .. }) => *model,
+        _ => GlossyModel::BlinnPhong,
+    }
+}
+
+fn mean(sum: [f64; 3], n: u32) -> [f64; 3] {
+    if n == 0 {
+        [0.0; 3]
+    } else {
+        sum.map(|s| s / n as f64)
+    }
+}
+
+/// One camera sample of one pixel.
+struct Sample<'a> {
+    scene: &'a Scene,
+    job: &'a RenderJob,
+    owns_direct: bool,
+    /// Record the cosine rays' hit distances (pass 0).
+    record_z: bool,
+    /// Whether the diffuse and the glossy component take this sample.
+    want: (bool, bool),
+}
+
+impl Sample<'_> {
+    /// Traces the sample into `px`. Returns (rays, dropped).
+    fn run(&self, x: usize, y: usize, sampler: &mut PixelSampler, px: &mut PixelSums) -> (u64, u64) {
+        let (scene, cam) = (self.scene, &self.scene.camera);
+        let j = sampler.next_2d();
+        let dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
+        let mut rays = 1u64;
+        let mut dropped = 0u64;
+        let Some(hit) = scene.intersect(cam.position, dir, 0.0) else {
+            self.record(px, Vec3::ZERO, None, Vec3::ZERO, None);
+            return (rays, 0);
+        };
+        let wo = -dir;
+        // Fixed dimensions first (stratified over the pixel's samples): diffuse, glossy.
+        let (u_d, u_s) = (sampler.next_2d(), sampler.next_2d());
+        if let Integrand::AmbientOcclusion { max_distance } = self.job.integrand {
+            let (z, r) = occlusion_ray(scene, &hit, u_d, max_distance);
+            rays += r as u64;
+            if self.record_z {
+                record_reflector(px, z.filter(|&t| t > 0.0));
+            }
+            self.record(px, Vec3::ONE, Some(Vec3::splat(if z.is_some() { 0.0 } else { 1.0 })), Vec3::ZERO, None);
+            return (rays, 0);
+        }
+        if self.owns_direct {
+            let (l, r) = direct_light(scene, &hit, wo, sampler);
+            rays += r as u64;
+            let v = l + emitted(scene, &hit, wo);
+            if v.is_finite() {
+                for c in 0..3 {
+                    px.direct[c] += v[c] as f64;
+                }
+            } else {
+                dropped += 1;
+            }
+        }
+        let brdf = scene.materials[hit.material as usize].brdf(hit.uv);
+        let front = hit.ns.dot(wo) > 0.0;
+        let mut diffuse = None;
+        if self.want.0 && brdf.kd != Vec3::ZERO && front {
+            let wi = to_world(hit.ns, cosine_hemisphere(u_d));
+            let (l, z, r) = self.incident(&hit, wi, sampler);
+            rays += r;
+            if self.record_z {
+                record_reflector(px, z);
+            }
+            // kd/pi * L * cos / (cos/pi) = kd * L: D is L itself.
+            diffuse = finite_or_drop(l, &mut dropped);
+        }
+        let mut glossy = None;
+        if self.want.1 && brdf.ks != Vec3::ZERO && front {
+            let l = match brdf.sample_specular(wo, hit.ns, u_s) {
+                Some((wi, weight)) => {
+                    let (l, _, r) = self.incident(&hit, wi, sampler);
+                    rays += r;
+                    l * weight
+                }
+                None => Vec3::ZERO,
+            };
+            glossy = finite_or_drop(l, &mut dropped);
+        }
+        self.record(px, brdf.kd, diffuse, brdf.ks, glossy);
+        (rays, dropped)
+    }
+
+    /// Adds the sample's diffuse and glossy values (None: nothing reflected) to the components
+    /// that take it.
+    fn record(&self, px: &mut PixelSums, kd: Vec3, d: Option<Vec3>, ks: Vec3, s: Option<Vec3>) {
+        if self.want.0 {
+            px.diffuse.add(kd, d);
+        }
+        if self.want.1 {
+            px.glossy.add(ks, s);
+        }
+    }
+
+    /// Radiance arriving at `hit` from direction `wi` (indirect only: a ray that reaches a
+    /// light's surface brings nothing, direct light being estimated apart), the reflector
+    /// distance, and the rays traced.
+    fn incident(&self, hit: &Surface, wi: Vec3, sampler: &mut PixelSampler) -> (Vec3, Option<f32>, u64) {
+        let scene = self.scene;
+        if hit.ng.dot(wi) <= 0.0 {
+            return (Vec3::ZERO, None, 0);
+        }
+        let o = hit.p + hit.ng * Scene::ray_epsilon(hit.p);
+        let Some(next) = scene.intersect(o, wi, 0.0) else { return (Vec3::ZERO, None, 1) };
+        if matches!(scene.materials[next.material as usize], Material::Emitter { .. }) {
+            return (Vec3::ZERO, Some(next.t), 1);
+        }
+        let bounces = self.job.bounces.saturating_sub(1);
+        let r = radiance_from(scene, next, -wi, bounces, sampler, DirectLights::All);
+        (r.radiance, Some(next.t), 1 + r.rays as u64)
+    }
+}
+
+fn record_reflector(px: &mut PixelSums, z: Option<f32>) {
+    if let Some(t) = z {
+        px.z_min = px.z_min.min(t);
+        px.z_max = px.z_max.max(t);
+    }
+}
+
+fn finite_or_drop(v: Vec3, dropped: &mut u64) -> Option<Vec3> {
+    if v.is_finite() {
+        Some(v)
+    } else {
+        *dropped += 1;
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,1 @@
+//! Tests of the indirect strategy on small scenes with fixed seeds.
