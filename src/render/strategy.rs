@@ -82,6 +82,27 @@ pub fn make_strategy(job: &RenderJob) -> Box<dyn Strategy> {
     }
 }
 
+/// The names of the per-component maps (`Frame::components`) the frames of `job` carry, in
+/// order: known before the render starts, so a stream can announce its layers.
+pub fn component_names(job: &RenderJob) -> Vec<&'static str> {
+    if job.method == Method::Uniform {
+        return Vec::new();
+    }
+    let ao = matches!(job.integrand, Integrand::AmbientOcclusion { .. });
+    let shadows = !ao && job.scene.lights.iter().any(|l| matches!(l, Light::Rect(_)));
+    let mut names = Vec::new();
+    if shadows {
+        names.push("shadow");
+    }
+    if ao || job.bounces > 0 {
+        names.push("diffuse");
+        if !ao && IndirectStrategy::has_glossy(&job.scene) {
+            names.push("glossy");
+        }
+    }
+    names
+}
+
 /// Strategies that each render one part of the light; a frame is the sum of theirs. The
 /// total spp map adds up the parts' camera samples; the filter-width map is the widest.
 pub struct SumOfParts {

@@ -181,11 +181,7 @@ const STREAM: u64 = 0x696e_6469_7265_6374;
 impl IndirectStrategy {
     pub fn new(job: &RenderJob, mode: FilterMode, owns_direct: bool) -> Self {
         let ao = matches!(job.integrand, Integrand::AmbientOcclusion { .. });
-        let glossy = !ao
-            && job.scene.materials.iter().any(|m| match m {
-                Material::Glossy { specular, .. } => specular.values().iter().any(|v| *v != Vec3::ZERO),
-                _ => false,
-            });
+        let glossy = !ao && Self::has_glossy(&job.scene);
         IndirectStrategy {
             mode,
             opts: job.indirect.clone(),
@@ -201,6 +197,14 @@ impl IndirectStrategy {
             dropped: 0,
             method_seconds: 0.0,
         }
+    }
+
+    /// Whether some material of `scene` has a glossy lobe (else there is no glossy component).
+    pub fn has_glossy(scene: &Scene) -> bool {
+        scene.materials.iter().any(|m| match m {
+            Material::Glossy { specular, .. } => specular.values().iter().any(|v| *v != Vec3::ZERO),
+            _ => false,
+        })
     }
 
     fn parts(&self) -> &'static [Part] {
