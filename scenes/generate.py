@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the built-in scenes (cornell.json, grids.json, curved.json) as canonical protobuf JSON
+"""Writes the built-in scenes (cornell, grids, curved, cornell-glossy, interior) as canonical protobuf JSON
 of wedge.v1.Scene. Run from anywhere: `python3 scenes/generate.py`. The JSON files are
 committed and compiled into the binary; this script is how they were made."""
 import json
@@ -66,6 +66,92 @@ def cornell():
         "lights": [{"rect": {"corner": v(343, 548.3, 227), "edgeU": v(0, 0, 105), "edgeV": v(-130, 0, 0),
                              "radiance": rgb(18.387, 10.9873, 2.75357)}}],
         "settings": {"method": "METHOD_UNIFORM", "maxPasses": 8, "bounces": 3},
+    }
+
+
+def glossy(name, kd, ks, m, model="GLOSSY_MODEL_BLINN_PHONG"):
+    return {"name": name, "glossy": {"diffuse": {"constant": rgb(*kd)}, "specular": {"constant": rgb(*ks)},
+                                     "exponent": {"constant": m}, "model": model}}
+
+
+def box(name, material, lo, hi):
+    return {"name": name, "material": material, "box": {"min": v(*lo), "max": v(*hi)}}
+
+
+def cornell_glossy():
+    # The Cornell box of `cornell` with glossy objects, lit by a point light below the ceiling
+    # as in the AAF indirect paper (Mehta et al. 2013, Fig. 8: glossy objects with Blinn-Phong
+    # exponent 12, 2 bounces; all its examples use one point light).
+    base = cornell()
+    walls = [s for s in base["shapes"] if not s["name"].endswith("_block")]
+    short = [s for s in base["shapes"] if s["name"] == "short_block"]
+    return {
+        "description": "Cornell box with glossy Blinn-Phong objects (m = 12-20) under a point light (AAF 2013 Fig. 8)",
+        "camera": base["camera"],
+        "materials": base["materials"] + [
+            glossy("blue_gloss", (0.15, 0.2, 0.45), (0.45, 0.45, 0.45), 12),
+            glossy("gold_gloss", (0.35, 0.25, 0.08), (0.5, 0.42, 0.2), 20),
+            glossy("white_phong", (0.45, 0.45, 0.45), (0.3, 0.3, 0.3), 16, "GLOSSY_MODEL_PHONG")],
+        "shapes": walls + [dict(short[0], material="white_phong"),
+                           {"name": "ball", "material": "blue_gloss",
+                            "sphere": {"center": v(370, 110, 330), "radius": 110, "subdivisions": 4}},
+                           {"name": "pillar", "material": "gold_gloss",
+                            "box": {"min": v(120, 165, 120), "max": v(220, 345, 220)}}],
+        "lights": [{"point": {"position": v(278, 500, 279.6), "intensity": rgb(190000, 150000, 110000)}}],
+        "settings": {"method": "METHOD_UNIFORM", "maxPasses": 8, "bounces": 2},
+    }
+
+
+def interior():
+    # A meeting room with reflectors at many distances (like the AAF indirect paper's conference
+    # room, Fig. 6, built procedurally): a long table with chairs, shelves, pillars and a sofa;
+    # two point lights under the ceiling; a checkered floor (texture kept out of the filter).
+    W, H, D = 10.0, 3.0, 8.0
+    shapes = [
+        {"name": "floor", "material": "floor", "quad": {"corner": v(0, 0, 0), "edgeU": v(0, 0, D), "edgeV": v(W, 0, 0)}},
+        {"name": "ceiling", "material": "wall", "quad": {"corner": v(0, H, 0), "edgeU": v(W, 0, 0), "edgeV": v(0, 0, D)}},
+        {"name": "back", "material": "wall", "quad": {"corner": v(0, 0, D), "edgeU": v(0, H, 0), "edgeV": v(W, 0, 0)}},
+        {"name": "front", "material": "wall", "quad": {"corner": v(0, 0, 0), "edgeU": v(W, 0, 0), "edgeV": v(0, H, 0)}},
+        {"name": "left", "material": "accent", "quad": {"corner": v(0, 0, 0), "edgeU": v(0, H, 0), "edgeV": v(0, 0, D)}},
+        {"name": "right", "material": "wall", "quad": {"corner": v(W, 0, 0), "edgeU": v(0, 0, D), "edgeV": v(0, H, 0)}},
+        box("table_top", "table", (3.0, 0.72, 2.8), (7.0, 0.78, 5.2)),
+    ]
+    for i, (x, z) in enumerate([(3.2, 2.9), (6.6, 2.9), (3.2, 4.9), (6.6, 4.9)]):
+        shapes.append(box(f"table_leg{i}", "table", (x, 0, z), (x + 0.2, 0.72, z + 0.2)))
+    for i, x in enumerate([3.4, 4.6, 5.8]):
+        for side, (z0, z1, back_z) in enumerate([(2.0, 2.45, 1.95), (5.55, 6.0, 6.0)]):
+            shapes.append(box(f"seat{i}_{side}", "chair", (x, 0.42, z0), (x + 0.45, 0.48, z1)))
+            shapes.append(box(f"seat_base{i}_{side}", "chair", (x + 0.18, 0, z0 + 0.18), (x + 0.27, 0.42, z1 - 0.18)))
+            bz = back_z - 0.06 if side == 0 else back_z
+            shapes.append(box(f"chair_back{i}_{side}", "chair", (x, 0.48, min(bz, bz + 0.06)), (x + 0.45, 1.0, max(bz, bz + 0.06))))
+    for i, y in enumerate([0.0, 0.6, 1.2, 1.8]):
+        shapes.append(box(f"shelf{i}", "shelf", (9.55, y, 1.0), (9.95, y + 0.04, 3.4)))
+    shapes.append(box("shelf_side_a", "shelf", (9.55, 0, 0.96), (9.95, 1.84, 1.0)))
+    shapes.append(box("shelf_side_b", "shelf", (9.55, 0, 3.4), (9.95, 1.84, 3.44)))
+    for i, (y, z) in enumerate([(0.04, 1.2), (0.64, 2.1), (1.24, 1.5), (0.04, 2.7)]):
+        shapes.append(box(f"books{i}", "books", (9.6, y, z), (9.9, y + 0.35, z + 0.5)))
+    for i, x in enumerate([2.0, 8.0]):
+        shapes.append({"name": f"pillar{i}", "material": "wall",
+                       "box": {"min": v(x - 0.2, 0, 7.0), "max": v(x + 0.2, H, 7.4)}})
+    shapes += [box("sofa_seat", "sofa", (0.2, 0, 5.5), (1.1, 0.45, 7.8)),
+               box("sofa_back", "sofa", (0.05, 0, 5.5), (0.3, 0.9, 7.8)),
+               {"name": "lamp_shade", "material": "accent", "sphere": {"center": v(5.0, 2.55, 4.0), "radius": 0.2,
+                                                                        "subdivisions": 3}}]
+    return {
+        "description": "a procedurally built meeting room: reflectors at many distances, two point lights (AAF 2013 Fig. 6)",
+        "camera": {"position": v(0.6, 1.7, 0.5), "lookAt": v(6.0, 0.7, 5.0), "up": v(0, 1, 0),
+                   "verticalFovDeg": 60, "width": 320, "height": 240},
+        "materials": [
+            {"name": "floor", "lambertian": {"albedo": {"checker": {"even": rgb(0.55, 0.42, 0.3),
+                                                                   "odd": rgb(0.35, 0.25, 0.18), "scale": 10}}}},
+            lambert("wall", (0.75, 0.74, 0.7)), lambert("accent", (0.6, 0.25, 0.15)),
+            lambert("table", (0.45, 0.3, 0.2)), lambert("chair", (0.2, 0.3, 0.5)),
+            lambert("shelf", (0.6, 0.55, 0.45)), lambert("books", (0.3, 0.5, 0.3)),
+            lambert("sofa", (0.5, 0.15, 0.2))],
+        "shapes": shapes,
+        "lights": [{"point": {"position": v(3.3, 2.7, 4.0), "intensity": rgb(6, 5.6, 5)}},
+                   {"point": {"position": v(7.5, 2.7, 3.0), "intensity": rgb(5, 5, 5.4)}}],
+        "settings": {"method": "METHOD_UNIFORM", "maxPasses": 8, "bounces": 1},
     }
 
 
@@ -151,8 +237,9 @@ def curved():
 
 
 if __name__ == "__main__":
-    for name, make in [("cornell", cornell), ("grids", grids), ("curved", curved)]:
+    for name, make in [("cornell", cornell), ("grids", grids), ("curved", curved),
+                       ("cornell-glossy", cornell_glossy), ("interior", interior)]:
         with open(os.path.join(HERE, name + ".json"), "w") as f:
-            json.dump(make(), f, separators=(",", ":") if name == "curved" else (",", ": "),
-                      indent=None if name == "curved" else 1)
+            compact = name in ("curved", "cornell-glossy", "interior")
+            json.dump(make(), f, separators=(",", ":") if compact else (",", ": "), indent=None if compact else 1)
             f.write("\n")

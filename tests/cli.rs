@@ -105,7 +105,7 @@ fn bad_scene_files_get_file_and_line() {
 fn scenes_lists_the_builtins() {
     let o = wedge(&["scenes"]);
     let out = String::from_utf8_lossy(&o.stdout);
-    for name in ["cornell", "grids", "curved"] {
+    for name in ["cornell", "grids", "curved", "cornell-glossy", "interior"] {
         assert!(out.contains(name), "{out}");
     }
 }

@@ -301,7 +301,7 @@ async fn list_scenes_has_the_builtins() {
     let server = TestServer::start().await;
     let scenes = server.client().await.list_scenes(ListScenesRequest {}).await.expect("ListScenes").into_inner().scenes;
     let names: Vec<&str> = scenes.iter().map(|s| s.name.as_str()).collect();
-    for want in ["cornell", "grids", "curved"] {
+    for want in ["cornell", "grids", "curved", "cornell-glossy", "interior"] {
         assert!(names.contains(&want), "{want} missing from {names:?}");
     }
     for s in &scenes {

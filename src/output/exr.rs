@@ -226,6 +226,7 @@ mod tests {
             unfiltered: filtered.then(|| rgb(5)),
             spp: (0..n).map(|i| (i % 5 * 4) as f32).collect(),
             filter_width: filtered.then(|| (0..n).map(|i| (i + 1) as f32 * 0.25).collect()),
+            components: Vec::new(),
             stats: FrameStats {
                 pass: 3,
                 mean_spp: 7.75,

@@ -8,6 +8,8 @@ const SOURCES: &[(&str, &str)] = &[
     ("cornell", include_str!("../../scenes/cornell.json")),
     ("grids", include_str!("../../scenes/grids.json")),
     ("curved", include_str!("../../scenes/curved.json")),
+    ("cornell-glossy", include_str!("../../scenes/cornell-glossy.json")),
+    ("interior", include_str!("../../scenes/interior.json")),
 ];
 
 pub struct BuiltinScene {
@@ -49,7 +51,7 @@ mod tests {
             assert!(!s.description.is_empty());
             assert_eq!(c.degenerate_triangles, 0, "{}", s.name);
         }
-        assert_eq!(names().collect::<Vec<_>>(), ["cornell", "grids", "curved"]);
+        assert_eq!(names().collect::<Vec<_>>(), ["cornell", "grids", "curved", "cornell-glossy", "interior"]);
         assert!(get("nope").is_none());
     }
 }

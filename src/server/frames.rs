@@ -473,6 +473,7 @@ mod tests {
             unfiltered: Some((0..n).map(|i| [v(i, 3), v(i, 4), -v(i, 5)]).collect()),
             spp: (0..n).map(|i| (i % 5) as f32 * 4.0).collect(),
             filter_width: Some((0..n).map(|i| v(i, 6) * 0.01).collect()),
+            components: Vec::new(),
             stats: FrameStats {
                 pass: 3,
                 mean_spp: 12.5,
@@ -487,7 +488,14 @@ mod tests {
     }
 
     fn all_layers(format: PixelFormat) -> OutputSelection {
-        OutputSelection { color: true, spp: true, filter_width: true, unfiltered: true, format: format as i32 }
+        OutputSelection {
+            color: true,
+            spp: true,
+            filter_width: true,
+            unfiltered: true,
+            components: false,
+            format: format as i32,
+        }
     }
 
     fn started(frame: &Frame, sel: &OutputSelection) -> RenderStarted {
@@ -612,6 +620,7 @@ mod tests {
             unfiltered: None,
             spp: vec![1.0; n],
             filter_width: None,
+            components: Vec::new(),
             stats: FrameStats::default(),
         };
         let sel = all_layers(PixelFormat::F32);

@@ -144,7 +144,7 @@ fn each_light_has_its_own_counts_and_they_add_up() {
     assert!(two[0].spp.iter().all(|&s| s == 18.0));
     let strategy = ShadowStrategy::new(
         &job(shadow_scene(4, 4, 1.0, EmissionProfile::Gaussian, 2, 0.6), Method::Aaf, 1, 2),
-        ShadowMode::Aaf,
+        crate::render::strategy::FilterMode::Aaf,
     );
     assert_eq!(strategy.lights.len(), 2);
 }

@@ -55,7 +55,10 @@ pub struct IndirectOptions {
     /// Multiplies the filter's standard deviation (1: the paper; 0.25: the authors' code).
     pub kernel_scale: f64,
     /// Divide the projected pixel size by |n . view| (the paper's d "accounts for
-    /// foreshortening", footnote 7); the authors' code left it out.
+    /// foreshortening", footnote 7). Off by default, as in the authors' code and methods.md
+    /// §0.1: the filter is isotropic, and a foreshortened d (the footprint's long axis) would
+    /// keep it several pixels wide across the short axis of grazing surfaces at any mu, so the
+    /// stream would not converge to the per-pixel mean there.
     pub foreshortening: bool,
     /// 10-degree normal threshold (Sec. 6), world distances, radius up to 50 pixels.
     pub filter: FilterOptions,
@@ -70,7 +73,7 @@ impl Default for IndirectOptions {
             mu0: 0.9,
             initial_samples: 16,
             kernel_scale: 1.0,
-            foreshortening: true,
+            foreshortening: false,
             filter: FilterOptions { max_normal_angle_deg: 10.0, object_id_check: false, max_radius: 50, tangent_plane: false },
             fixed_filter_px: 4.0,
         }
