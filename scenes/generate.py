@@ -94,7 +94,7 @@ def cornell_glossy():
             glossy("white_phong", (0.45, 0.45, 0.45), (0.3, 0.3, 0.3), 16, "GLOSSY_MODEL_PHONG")],
         "shapes": walls + [dict(short[0], material="white_phong"),
                            {"name": "ball", "material": "blue_gloss",
-                            "sphere": {"center": v(370, 110, 330), "radius": 110, "subdivisions": 4}},
+                            "sphere": {"center": v(370, 110, 330), "radius": 110, "subdivisions": 48}},
                            {"name": "pillar", "material": "gold_gloss",
                             "box": {"min": v(120, 165, 120), "max": v(220, 345, 220)}}],
         "lights": [{"point": {"position": v(278, 500, 279.6), "intensity": rgb(190000, 150000, 110000)}}],

@@ -360,6 +360,26 @@ mod tests {
     }
 
     #[test]
+    fn ambient_occlusion_distance_moves_into_internal_units() {
+        let mut r = builtin_req("cornell");
+        r.settings = Some(proto::RenderSettings {
+            ambient_occlusion: true,
+            ambient_occlusion_distance: 100.0,
+            ..Default::default()
+        });
+        let p = prepare(&r, &Limits::default(), None, "cornell").unwrap();
+        let k = p.job.scene.world_scale;
+        assert_eq!(p.job.integrand, Integrand::AmbientOcclusion { max_distance: 100.0 * k });
+        r.settings.as_mut().unwrap().ambient_occlusion_distance = 0.0;
+        let p = prepare(&r, &Limits::default(), None, "cornell").unwrap();
+        assert_eq!(p.job.integrand, Integrand::AmbientOcclusion { max_distance: f32::INFINITY });
+        assert_eq!(
+            prepare(&builtin_req("cornell"), &Limits::default(), None, "c").unwrap().job.integrand,
+            Integrand::Radiance
+        );
+    }
+
+    #[test]
     fn bad_requests_name_their_field() {
         assert_eq!(field_of(builtin_req("nope")), "builtin");
         assert_eq!(field_of(proto::RenderRequest::default()), "scene");
@@ -392,6 +412,18 @@ mod tests {
         let mut r = builtin_req("cornell");
         r.settings = Some(proto::RenderSettings { bounces: Some(1000), ..Default::default() });
         assert_eq!(field_of(r), "settings.bounces");
+        for bad in [f32::NAN, -1.0] {
+            let mut r = builtin_req("cornell");
+            r.settings = Some(proto::RenderSettings {
+                ambient_occlusion: true,
+                ambient_occlusion_distance: bad,
+                ..Default::default()
+            });
+            assert_eq!(field_of(r), "settings.ambient_occlusion_distance");
+        }
+        let mut r = builtin_req("cornell");
+        r.settings = Some(proto::RenderSettings { ambient_occlusion_distance: 2.0, ..Default::default() });
+        assert_eq!(field_of(r), "settings.ambient_occlusion_distance");
         // AAF state grows with pixels x area lights: bounded like the image. Two lights on a
         // 32 x 24 image: 1536 pixel-lights against a limit of 1000 pixels (the image fits).
         let mut scene = builtin::get("curved").unwrap();

@@ -109,3 +109,24 @@ fn scenes_lists_the_builtins() {
         assert!(out.contains(name), "{out}");
     }
 }
+
+#[test]
+fn ambient_occlusion_renders_an_open_fraction() {
+    let dir = temp_dir("ao");
+    let d = dir.to_str().unwrap();
+    let o = wedge(&["render", "interior", "--ao", "--method", "aaf", "--out", d, "--width", "24", "--height", "18"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let exr = wedge::output::read_exr(&dir.join("final.exr")).unwrap();
+    // A closed room: every hemisphere is covered, nothing is open.
+    assert!(exr.frame.color.iter().flatten().all(|&v| v == 0.0), "an open direction inside the closed room");
+    let o =
+        wedge(&["render", "interior", "--ao", "--ao-distance", "0.5", "--out", d, "--width", "24", "--height", "18"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let exr = wedge::output::read_exr(&dir.join("final.exr")).unwrap();
+    let mean = exr.frame.color.iter().map(|c| c[0] as f64).sum::<f64>() / exr.frame.color.len() as f64;
+    assert!(mean > 0.5 && mean < 1.0, "mean open fraction within 0.5 m: {mean}");
+    // The distance needs --ao.
+    let o = wedge(&["render", "interior", "--ao-distance", "0.5", "--out", d]);
+    assert!(!o.status.success() && stderr(&o).contains("--ao"), "{}", stderr(&o));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

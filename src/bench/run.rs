@@ -25,6 +25,8 @@ pub struct BenchConfig {
     pub passes: u32,
     pub repeats: u32,
     pub seed: u64,
+    /// Indirect bounces for every scene (None: each scene's own setting).
+    pub bounces: Option<u32>,
     pub out: PathBuf,
     pub name: String,
     /// The command line, recorded in the report.
@@ -74,7 +76,7 @@ pub fn bench_scene(name: &str, mut scene: proto::Scene, cfg: &BenchConfig) -> an
     if let Some(c) = scene.camera.as_mut() {
         (c.width, c.height) = (cfg.width, cfg.height);
     }
-    let bounces = scene.settings.as_ref().and_then(|s| s.bounces).unwrap_or(0);
+    let bounces = cfg.bounces.unwrap_or_else(|| scene.settings.as_ref().and_then(|s| s.bounces).unwrap_or(0));
     let compiled = Arc::new(compile(&scene, &SceneLimits::default(), None)?);
     let t = std::time::Instant::now();
     let (reference, reference_note) = match &cfg.reference {
@@ -269,6 +271,7 @@ mod tests {
             passes: 2,
             repeats: 2,
             seed: 1,
+            bounces: None,
             out: out.clone(),
             name: "t".into(),
             command: "test".into(),

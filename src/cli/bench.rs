@@ -46,6 +46,9 @@ pub struct ConvergenceArgs {
     /// Seeds per method (medians are reported).
     #[arg(long)]
     pub repeats: Option<u32>,
+    /// Indirect bounces, overriding each scene's own setting.
+    #[arg(long)]
+    pub bounces: Option<u32>,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Output directory.
@@ -201,6 +204,7 @@ fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
         passes: a.passes.unwrap_or(if q { 4 } else { 5 }),
         repeats: a.repeats.unwrap_or(if q { 2 } else { 3 }),
         seed: a.seed,
+        bounces: a.bounces,
         out: a.out.clone(),
         name: a.name.clone().unwrap_or_else(|| if q { "quick".into() } else { "full".into() }),
         command: std::env::args().collect::<Vec<_>>().join(" "),

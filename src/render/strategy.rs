@@ -116,7 +116,9 @@ impl Strategy for SumOfParts {
             let out = part.run_pass(ctx)?;
             total = Some(match total {
                 None => out,
-                Some(acc) => PassOutput { frame: add_frames(acc.frame, out.frame), complete: acc.complete && out.complete },
+                Some(acc) => {
+                    PassOutput { frame: add_frames(acc.frame, out.frame), complete: acc.complete && out.complete }
+                }
             });
         }
         Ok(total.unwrap_or_else(|| PassOutput { frame: Frame::default(), complete: true }))

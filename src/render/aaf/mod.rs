@@ -267,8 +267,7 @@ impl ShadowStrategy {
                     for _ in 0..new {
                         let mut sampler = PixelSampler::new(job.seed, (y * w + x) as u32, px.taken);
                         px.taken += 1;
-                        let (r, d) =
-                            sample_pixel(scene, lights, x, y, &mut sampler, sums, want, px, record_slopes);
+                        let (r, d) = sample_pixel(scene, lights, x, y, &mut sampler, sums, want, px, record_slopes);
                         rays += r;
                         dropped += d;
                     }

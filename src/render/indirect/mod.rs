@@ -74,7 +74,12 @@ impl Default for IndirectOptions {
             initial_samples: 16,
             kernel_scale: 1.0,
             foreshortening: false,
-            filter: FilterOptions { max_normal_angle_deg: 10.0, object_id_check: false, max_radius: 50, tangent_plane: false },
+            filter: FilterOptions {
+                max_normal_angle_deg: 10.0,
+                object_id_check: false,
+                max_radius: 50,
+                tangent_plane: false,
+            },
             fixed_filter_px: 4.0,
         }
     }
@@ -374,9 +379,8 @@ impl IndirectStrategy {
                         } else if self.mode == FilterMode::UniformFiltered {
                             self.opts.fixed_filter_px * self.d[p]
                         } else {
-                            self.reflectors(scene, p, part).map_or(0.0, |r| {
-                                filter_width(&r, &self.opts.constants, mu) * self.opts.kernel_scale
-                            })
+                            self.reflectors(scene, p, part)
+                                .map_or(0.0, |r| filter_width(&r, &self.opts.constants, mu) * self.opts.kernel_scale)
                         };
                         FilterPixel {
                             position: gp.map_or(DVec3::ZERO, |s| s.position.as_dvec3()),

@@ -178,9 +178,10 @@ fn floor_and_wall() -> Arc<Scene> {
 fn ambient_occlusion_matches_the_closed_form_next_to_a_wall() {
     let s = floor_and_wall();
     let k = s.world_scale;
-    let wall = [Vec3::new(1.0, 0.0, -3.0), Vec3::new(1.0, 1.0, -3.0), Vec3::new(1.0, 1.0, 3.0), Vec3::new(1.0, 0.0, 3.0)]
-        // The internal frame centres the bounds (-3, 0, -3)..(1, 1, 3) at the origin.
-        .map(|p| (p - Vec3::new(-1.0, 0.5, 0.0)) * k);
+    let wall =
+        [Vec3::new(1.0, 0.0, -3.0), Vec3::new(1.0, 1.0, -3.0), Vec3::new(1.0, 1.0, 3.0), Vec3::new(1.0, 0.0, 3.0)]
+            // The internal frame centres the bounds (-3, 0, -3)..(1, 1, 3) at the origin.
+            .map(|p| (p - Vec3::new(-1.0, 0.5, 0.0)) * k);
     let g = GBuffer::build(&s);
     // Open fraction = 1 - (cosine-weighted solid angle of the wall) / pi.
     let exact: Vec<Option<f64>> = g

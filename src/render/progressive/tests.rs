@@ -36,7 +36,17 @@ pub(crate) fn small_scene(width: u32, height: u32) -> Arc<Scene> {
 }
 
 fn job(scene: Arc<Scene>, halt: Halt) -> RenderJob {
-    RenderJob { scene, method: Method::Uniform, halt, seed: 7, bounces: 1, initial_spp: 1, aaf: Default::default(), integrand: Default::default(), indirect: Default::default() }
+    RenderJob {
+        scene,
+        method: Method::Uniform,
+        halt,
+        seed: 7,
+        bounces: 1,
+        initial_spp: 1,
+        aaf: Default::default(),
+        integrand: Default::default(),
+        indirect: Default::default(),
+    }
 }
 
 fn frames(job: &RenderJob) -> Vec<Frame> {
