@@ -21,34 +21,50 @@ fn stderr(o: &Output) -> String {
 
 const ARGS: &[&str] = &["--width", "40", "--height", "30", "--seed", "11", "--max-passes", "3", "--reproducible"];
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn render_and_client_write_byte_identical_files() {
+/// Runs `wedge render` and `wedge client` (against an in-process server) with `ARGS` and
+/// `extra`, writing every pass; returns the temporary directory and the two output directories.
+async fn render_and_client(name: &str, extra: &[&str]) -> (PathBuf, PathBuf, PathBuf) {
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
     let addr = format!("http://{}", listener.local_addr().unwrap());
     let (tx, rx) = tokio::sync::oneshot::channel::<()>();
     let server = tokio::spawn(serve_on(listener, ServerConfig::default(), ServerState::new(), async {
         let _ = rx.await;
     }));
-    let dir = temp_dir("identical");
+    let dir = temp_dir(name);
     let (local, remote) = (dir.join("local"), dir.join("remote"));
     let (l, r) = (local.to_str().unwrap().to_string(), remote.to_str().unwrap().to_string());
+    let extra: Vec<String> = extra.iter().map(|a| a.to_string()).collect();
     let out = tokio::task::spawn_blocking(move || {
         let mut a = vec!["render", "cornell", "--out", &l, "--every", "1"];
         a.extend(ARGS);
+        a.extend(extra.iter().map(String::as_str));
         let o1 = wedge(&a);
         let mut b = vec!["client", "--addr", &addr, "cornell", "--out", &r, "--every", "1"];
         b.extend(ARGS);
+        b.extend(extra.iter().map(String::as_str));
         (o1, wedge(&b))
     })
     .await
     .unwrap();
     assert!(out.0.status.success(), "render: {}", stderr(&out.0));
     assert!(out.1.status.success(), "client: {}", stderr(&out.1));
-    for name in ["final.exr", "pass_000.exr", "pass_002.exr", "final.png", "final_spp.png"] {
+    let _ = tx.send(());
+    server.await.unwrap().unwrap();
+    (dir, local, remote)
+}
+
+fn assert_identical(local: &Path, remote: &Path, names: &[&str]) {
+    for name in names {
         let a = std::fs::read(local.join(name)).unwrap();
         let b = std::fs::read(remote.join(name)).unwrap();
         assert!(a == b, "{name} differs between render and client");
     }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn render_and_client_write_byte_identical_files() {
+    let (dir, local, remote) = render_and_client("identical", &[]).await;
+    assert_identical(&local, &remote, &["final.exr", "pass_000.exr", "pass_002.exr", "final.png", "final_spp.png"]);
     // The header says what produced it.
     let exr = wedge::output::read_exr(&local.join("final.exr")).unwrap();
     assert_eq!(exr.info.method, "uniform");
@@ -56,8 +72,20 @@ async fn render_and_client_write_byte_identical_files() {
     assert_eq!(exr.info.scene, "cornell");
     assert_eq!(exr.frame.stats.mean_spp, 4.0);
     assert!(exr.frame.stats.is_final);
-    let _ = tx.send(());
-    server.await.unwrap().unwrap();
+    assert!(exr.frame.components.is_empty());
+    assert!(!local.join("final_spp.shadow.png").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn client_files_carry_the_component_maps() {
+    let (dir, local, remote) = render_and_client("components", &["--method", "aaf", "--bounces", "1"]).await;
+    let maps = ["final_spp.shadow.png", "final_filter_width.shadow.png", "final_spp.diffuse.png"];
+    let files = ["final.exr", "pass_001.exr", "final_filter_width.diffuse.png"];
+    assert_identical(&local, &remote, &[&maps[..], &files[..]].concat());
+    let exr = wedge::output::read_exr(&remote.join("final.exr")).unwrap();
+    let names: Vec<&str> = exr.frame.components.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(names[..2], ["shadow", "diffuse"]);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -90,6 +90,7 @@ async fn tiny_chunks_reassemble_bit_exact() {
         spp: true,
         filter_width: true,
         unfiltered: true,
+        components: true,
         format: PixelFormat::F32 as i32,
     });
     let tiled = TestServer::with_config(ServerConfig { max_chunk_bytes: 1, ..Default::default() }).await;
@@ -440,7 +441,14 @@ async fn a_stock_client_receives_1080p_frames_with_every_layer() {
     if let Some(s) = req.settings.as_mut() {
         s.bounces = Some(0);
     }
-    req.outputs = Some(OutputSelection { color: true, spp: true, filter_width: true, unfiltered: true, format: 0 });
+    req.outputs = Some(OutputSelection {
+        color: true,
+        spp: true,
+        filter_width: true,
+        unfiltered: true,
+        components: true,
+        format: 0,
+    });
     let mut chunks = 0usize;
     let mut client = server.client().await;
     let mut stream = client.render(req).await.expect("render starts").into_inner();
@@ -458,4 +466,47 @@ async fn a_stock_client_receives_1080p_frames_with_every_layer() {
     assert_eq!((frame.width, frame.height), (1920, 1080));
     assert!(frame.spp.iter().all(|&s| s == 1.0));
     assert!(chunks >= 64, "{chunks} chunks");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn aaf_streams_the_component_maps() {
+    let server = TestServer::start().await;
+    let mut req = cornell(32, 32, 2, 9);
+    if let Some(s) = req.settings.as_mut() {
+        s.method = Method::Aaf as i32;
+        s.bounces = Some(1);
+    }
+    req.outputs = Some(OutputSelection { color: true, spp: true, components: true, ..Default::default() });
+    let got = within(300, "AAF render", async { collect(&mut server.client().await, req.clone()).await })
+        .await
+        .expect("AAF render");
+
+    let layers = &got.started.layers;
+    for name in ["spp.shadow", "filter_width.shadow", "spp.diffuse", "filter_width.diffuse"] {
+        assert!(layers.iter().any(|l| l == name), "{name} not in {layers:?}");
+    }
+    let last = got.frames.last().expect("a final frame");
+    assert!(last.stats.is_final);
+    let names: Vec<&str> = last.components.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(names[..2], ["shadow", "diffuse"]);
+    let n = last.spp.len();
+    assert_eq!(n, 32 * 32);
+    for c in &last.components {
+        assert_eq!(c.spp.len(), n, "{}", c.name);
+        for (p, (&own, &total)) in c.spp.iter().zip(&last.spp).enumerate() {
+            // The total adds up the parts' camera samples; each component is one part's.
+            assert!(own <= total, "{} spp {own} > total {total} at pixel {p}", c.name);
+            assert!(total <= 0.0 || own > 0.0, "{} spp 0 where the total is {total}, pixel {p}", c.name);
+        }
+    }
+    // Shadow and indirect light are separate parts: their samples add up to at most the total.
+    for p in 0..n {
+        let sum: f32 = last.components.iter().map(|c| c.spp[p]).sum();
+        assert!(sum <= last.spp[p], "components {sum} > total {} at pixel {p}", last.spp[p]);
+    }
+    // AAF filters both: some pixel has a width.
+    for c in &last.components[..2] {
+        let widths = c.filter_width.as_ref().unwrap_or_else(|| panic!("{} widths", c.name));
+        assert!(widths.iter().all(|w| w.is_finite() && *w >= 0.0), "{}", c.name);
+    }
 }

@@ -4,7 +4,11 @@
 //!
 //! Channels (the exr crate stores them sorted by name, so reading looks them up by name):
 //! `R`,`G`,`B` colour; `spp.Y`; `filter_width.Y` (zeros for unfiltered methods);
-//! `unfiltered.R`,`.G`,`.B` only when the frame has an unfiltered colour.
+//! `unfiltered.R`,`.G`,`.B` only when the frame has an unfiltered colour; and for each component
+//! of the light the method sampled separately, `spp.<component>.Y` and
+//! `filter_width.<component>.Y` (so viewers show each map as its own greyscale layer, like
+//! `spp.Y`). The sorted channel list loses the components' order, so the `wedge.components`
+//! attribute lists them.
 use std::collections::{BTreeMap, HashMap};
 use std::io::Cursor;
 use std::path::Path;
@@ -14,10 +18,12 @@ use ::exr::prelude::{
     LineOrder, ReadChannels, ReadLayers, Text, Vec2, WritableImage,
 };
 
-use super::exr_attributes::{attributes_as_text, from_attributes, to_attributes};
+use super::exr_attributes::{
+    attributes_as_text, components_attribute, from_attributes, read_components, to_attributes,
+};
 use super::exr_canonical::sort_header_attributes;
 use super::{OutputError, OutputOptions};
-use crate::render::frame::{Frame, RenderInfo};
+use crate::render::frame::{ComponentMaps, Frame, RenderInfo};
 
 /// ZIP over 16-scanline blocks, written in increasing line order: lossless and compact for
 /// float data, and with a fixed block order the parallel compressor's output is deterministic.
@@ -44,7 +50,8 @@ pub struct ExrImage {
 pub fn write_exr(path: &Path, frame: &Frame, info: &RenderInfo, opts: &OutputOptions) -> Result<(), OutputError> {
     let invalid = |reason: String| OutputError::InvalidInput { path: path.to_path_buf(), reason };
     check_frame(frame).map_err(invalid)?;
-    let attributes = to_attributes(info, &frame.stats, !opts.reproducible).map_err(invalid)?;
+    let mut attributes = to_attributes(info, &frame.stats, !opts.reproducible).map_err(invalid)?;
+    attributes.extend(components_attribute(&frame.components));
     let layer_attributes = LayerAttributes {
         software_name: Some(Text::from(concat!("wedge ", env!("CARGO_PKG_VERSION")))),
         other: attributes.into_iter().map(|(name, value)| (Text::from(name), value)).collect(),
@@ -107,13 +114,21 @@ pub fn read_exr(path: &Path) -> Result<ExrImage, OutputError> {
     let color = rgb(RGB)?.ok_or_else(|| not_wedge(format!("no {RGB:?} channels")))?;
     let unfiltered = rgb(UNFILTERED_RGB)?;
     let spp = required(SPP)?;
-    let filter_width = Some(required(FILTER_WIDTH)?).filter(|w| w.iter().any(|&v| v != 0.0));
+    let filter_width = nonzero(required(FILTER_WIDTH)?);
 
     // Our attributes are layer attributes; merge the image-level ones in case another tool
     // rewrote the file and moved them.
     let mut attributes: HashMap<Text, AttributeValue> = image.attributes.other;
     attributes.extend(layer.attributes.other);
     let (info, stats) = from_attributes(&attributes).map_err(not_wedge)?;
+    let components = read_components(&attributes)
+        .map_err(not_wedge)?
+        .into_iter()
+        .map(|name| {
+            let (spp, filter_width) = component_channels(&name);
+            Ok(ComponentMaps { spp: required(&spp)?, filter_width: nonzero(required(&filter_width)?), name })
+        })
+        .collect::<Result<Vec<_>, OutputError>>()?;
     let too_large = || not_wedge(format!("image size {width}x{height} exceeds u32"));
     Ok(ExrImage {
         frame: Frame {
@@ -123,7 +138,7 @@ pub fn read_exr(path: &Path) -> Result<ExrImage, OutputError> {
             unfiltered,
             spp,
             filter_width,
-            components: Vec::new(),
+            components,
             stats,
         },
         info,
@@ -143,21 +158,52 @@ fn check_frame(frame: &Frame) -> Result<(), String> {
         ("spp map", Some(frame.spp.len())),
         ("filter-width map", frame.filter_width.as_ref().map(Vec::len)),
     ];
+    let component_lengths = frame.components.iter().flat_map(|c| {
+        [
+            (format!("{} spp map", c.name), Some(c.spp.len())),
+            (format!("{} filter-width map", c.name), c.filter_width.as_ref().map(Vec::len)),
+        ]
+    });
+    let lengths = lengths.into_iter().map(|(what, len)| (what.to_string(), len)).chain(component_lengths);
     for (what, len) in lengths {
         if let Some(len) = len.filter(|&len| len != n) {
             return Err(format!("{what} has {len} pixels, expected {}x{}", frame.width, frame.height));
         }
     }
+    for (i, c) in frame.components.iter().enumerate() {
+        // The name becomes part of channel names and of a space-separated attribute.
+        if c.name.is_empty() || !c.name.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_') {
+            return Err(format!("component name {:?} is not a single word", c.name));
+        }
+        if frame.components[..i].iter().any(|d| d.name == c.name) {
+            return Err(format!("component {:?} appears twice", c.name));
+        }
+    }
     Ok(())
 }
 
+/// The spp and filter-width channel names of a component.
+fn component_channels(name: &str) -> (String, String) {
+    (format!("spp.{name}.Y"), format!("filter_width.{name}.Y"))
+}
+
+/// `None` for an all-zero map: how `write_exr` stores an absent filter-width map.
+fn nonzero(values: Vec<f32>) -> Option<Vec<f32>> {
+    Some(values).filter(|w| w.iter().any(|&v| v != 0.0))
+}
+
 fn channels(frame: &Frame) -> AnyChannels<FlatSamples> {
-    let filter_width = frame.filter_width.clone();
-    let filter_width = filter_width.unwrap_or_else(|| vec![0.0; frame.pixel_count()]);
+    // Unfiltered methods and components have no map; they filter with width 0 everywhere.
+    let widths = |w: &Option<Vec<f32>>| w.clone().unwrap_or_else(|| vec![0.0; frame.pixel_count()]);
+    let components = frame.components.iter().flat_map(|c| {
+        let (spp, filter_width) = component_channels(&c.name);
+        [channel(&spp, c.spp.clone()), channel(&filter_width, widths(&c.filter_width))]
+    });
     let list = rgb_channels(RGB, &frame.color)
         .into_iter()
         .chain(frame.unfiltered.iter().flat_map(|u| rgb_channels(UNFILTERED_RGB, u)))
-        .chain([channel(SPP, frame.spp.clone()), channel(FILTER_WIDTH, filter_width)]);
+        .chain([channel(SPP, frame.spp.clone()), channel(FILTER_WIDTH, widths(&frame.filter_width))])
+        .chain(components);
     AnyChannels::sort(list.collect())
 }
 
@@ -193,7 +239,7 @@ mod tests {
     use crate::output::exr_attributes::{METHOD_SECONDS, SECONDS};
     use crate::output::exr_canonical::header_attributes;
     use crate::output::test_util::TempDir;
-    use crate::render::frame::{CameraInfo, FrameStats, HaltReason};
+    use crate::render::frame::{CameraInfo, ComponentMaps, FrameStats, HaltReason};
 
     fn info() -> RenderInfo {
         RenderInfo {
@@ -226,7 +272,18 @@ mod tests {
             unfiltered: filtered.then(|| rgb(5)),
             spp: (0..n).map(|i| (i % 5 * 4) as f32).collect(),
             filter_width: filtered.then(|| (0..n).map(|i| (i + 1) as f32 * 0.25).collect()),
-            components: Vec::new(),
+            // Not in alphabetical order, which the file's sorted channels would give.
+            components: ["shadow", "diffuse", "glossy"]
+                .iter()
+                .enumerate()
+                .filter(|_| filtered)
+                .map(|(c, name)| ComponentMaps {
+                    name: name.to_string(),
+                    spp: (0..n).map(|i| ((i + c) % 4) as f32).collect(),
+                    // Glossy unfiltered: stored as zeros, read back as `None`.
+                    filter_width: (c < 2).then(|| (0..n).map(|i| value(i + c, 1)).collect()),
+                })
+                .collect(),
             stats: FrameStats {
                 pass: 3,
                 mean_spp: 7.75,
@@ -254,6 +311,12 @@ mod tests {
         assert_eq!(read.unfiltered.as_deref().map(rgb_bits), written.unfiltered.as_deref().map(rgb_bits));
         assert_eq!(bits(&read.spp), bits(&written.spp));
         assert_eq!(read.filter_width.as_deref().map(bits), written.filter_width.as_deref().map(bits));
+        let names = |f: &Frame| f.components.iter().map(|c| c.name.clone()).collect::<Vec<_>>();
+        assert_eq!(names(read), names(written));
+        for (r, w) in read.components.iter().zip(&written.components) {
+            assert_eq!(bits(&r.spp), bits(&w.spp), "{}", w.name);
+            assert_eq!(r.filter_width.as_deref().map(bits), w.filter_width.as_deref().map(bits), "{}", w.name);
+        }
     }
 
     const REPRODUCIBLE: OutputOptions = OutputOptions { reproducible: true };
@@ -310,11 +373,30 @@ mod tests {
             let image = ::exr::prelude::read_first_flat_layer_from_file(&path).unwrap();
             let layer = &image.layer_data;
             let names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
-            let mut expected = vec!["B", "G", "R", "filter_width.Y", "spp.Y"];
-            if filtered {
-                expected.extend(["unfiltered.B", "unfiltered.G", "unfiltered.R"]);
-            }
+            let expected: &[&str] = if filtered {
+                &[
+                    "B",
+                    "G",
+                    "R",
+                    "filter_width.Y",
+                    "filter_width.diffuse.Y",
+                    "filter_width.glossy.Y",
+                    "filter_width.shadow.Y",
+                    "spp.Y",
+                    "spp.diffuse.Y",
+                    "spp.glossy.Y",
+                    "spp.shadow.Y",
+                    "unfiltered.B",
+                    "unfiltered.G",
+                    "unfiltered.R",
+                ]
+            } else {
+                &["B", "G", "R", "filter_width.Y", "spp.Y"]
+            };
             assert_eq!(names, expected);
+            let attributes = read_exr(&path).unwrap().attributes;
+            let components = attributes.get("wedge.components").map(String::as_str);
+            assert_eq!(components, filtered.then_some("shadow diffuse glossy"));
             let all_f32 = layer.channel_data.list.iter().all(|c| matches!(c.sample_data, FlatSamples::F32(_)));
             assert!(all_f32);
             assert_eq!(layer.encoding.compression, Compression::ZIP16);
@@ -385,7 +467,19 @@ mod tests {
         short_spp.spp.pop();
         let mut long_width = frame(3, 5, true);
         long_width.filter_width.as_mut().unwrap().push(1.0);
-        for bad in [short_spp, long_width, Frame::default()] {
+        let mut short_component = frame(3, 5, true);
+        short_component.components[1].spp.pop();
+        let mut long_component_width = frame(3, 5, true);
+        long_component_width.components[0].filter_width.as_mut().unwrap().push(1.0);
+        let mut dotted_name = frame(3, 5, true);
+        dotted_name.components[0].name = "a.b".into();
+        let mut spaced_name = frame(3, 5, true);
+        spaced_name.components[0].name = "a b".into();
+        let mut twice = frame(3, 5, true);
+        twice.components[2].name = "shadow".into();
+        let bad_frames =
+            [short_spp, long_width, short_component, long_component_width, dotted_name, spaced_name, twice];
+        for bad in bad_frames.into_iter().chain([Frame::default()]) {
             let error = write_exr(&path, &bad, &info(), &REPRODUCIBLE).unwrap_err();
             assert!(matches!(error, OutputError::InvalidInput { .. }), "{error}");
             assert!(error.to_string().contains("bad.exr"), "{error}");
@@ -408,5 +502,18 @@ mod tests {
         assert!(matches!(error, OutputError::Format { .. }), "{error}");
         assert!(error.to_string().contains("foreign.exr"), "{error}");
         assert!(error.to_string().contains("spp.Y"), "{error}");
+
+        // A component listed in the header without its channels.
+        let path = dir.path().join("no_component.exr");
+        let mut written = frame(3, 5, true);
+        written.components.truncate(1);
+        write_exr(&path, &written, &info(), &REPRODUCIBLE).unwrap();
+        let mut image = ::exr::prelude::read_all_data_from_file(&path).unwrap();
+        let attributes = &mut image.layer_data[0].attributes.other;
+        attributes.insert(Text::from("wedge.components"), AttributeValue::Text(Text::from("shadow diffuse")));
+        image.write().to_file(&path).unwrap();
+        let error = read_exr(&path).unwrap_err();
+        assert!(matches!(error, OutputError::Format { .. }), "{error}");
+        assert!(error.to_string().contains("spp.diffuse.Y"), "{error}");
     }
 }

@@ -9,7 +9,7 @@ use std::collections::{BTreeMap, HashMap};
 
 use exr::meta::attribute::{AttributeValue, Text};
 
-use crate::render::frame::{CameraInfo, FrameStats, HaltReason, RenderInfo};
+use crate::render::frame::{CameraInfo, ComponentMaps, FrameStats, HaltReason, RenderInfo};
 
 pub(super) const PREFIX: &str = "wedge.";
 pub(super) const SCENE: &str = "wedge.scene";
@@ -30,6 +30,9 @@ pub(super) const CAMERA_POSITION: &str = "wedge.cameraPosition";
 pub(super) const CAMERA_LOOK_AT: &str = "wedge.cameraLookAt";
 pub(super) const CAMERA_UP: &str = "wedge.cameraUp";
 pub(super) const FOV_Y: &str = "wedge.fovY";
+/// The names of the frame's components, space-separated, in `Frame::components` order; only
+/// in files of frames that have components.
+pub(super) const COMPONENTS: &str = "wedge.components";
 
 /// The header attributes for a frame. `with_seconds` false leaves out the wall-clock times,
 /// the only attributes that differ between two runs of the same render.
@@ -65,6 +68,24 @@ pub(super) fn to_attributes(
         attributes.push((METHOD_SECONDS, AttributeValue::F64(stats.method_seconds)));
     }
     Ok(attributes)
+}
+
+/// The attribute listing the components of a frame that has any.
+pub(super) fn components_attribute(components: &[ComponentMaps]) -> Option<(&'static str, AttributeValue)> {
+    let names: Vec<&str> = components.iter().map(|c| c.name.as_str()).collect();
+    (!names.is_empty()).then(|| (COMPONENTS, text(&names.join(" "))))
+}
+
+/// The component names `components_attribute` recorded; none when the attribute is absent.
+pub(super) fn read_components(attributes: &HashMap<Text, AttributeValue>) -> Result<Vec<String>, String> {
+    match attributes.get(COMPONENTS.as_bytes()) {
+        None => Ok(Vec::new()),
+        Some(AttributeValue::Text(t)) => match std::str::from_utf8(t.bytes()) {
+            Ok(names) => Ok(names.split_whitespace().map(str::to_string).collect()),
+            Err(_) => Err(format!("attribute {COMPONENTS} is not UTF-8")),
+        },
+        Some(other) => Err(format!("attribute {COMPONENTS} has unexpected type or value {other:?}")),
+    }
 }
 
 /// Parses what `to_attributes` wrote. Missing seconds read as 0 (a reproducible file).

@@ -1,7 +1,8 @@
 //! Output files of a rendered frame: a lossless multi-layer EXR with everything the method
 //! produced and how it was produced (for metrics and reproduction), an sRGB preview PNG, and
-//! false-colour PNGs of the spp and filter-width maps (for looking at where the method spent
-//! samples and how widely it filtered).
+//! false-colour PNGs of the spp and filter-width maps, also per component of the light for
+//! methods that sample components separately (for looking at where the method spent samples
+//! and how widely it filtered).
 mod error;
 mod exr;
 mod exr_attributes;
@@ -35,10 +36,14 @@ pub struct WrittenFiles {
     pub preview: PathBuf,
     pub spp_map: PathBuf,
     pub filter_width_map: PathBuf,
+    /// Per component, in `Frame::components` order: its spp map, then its filter-width map.
+    pub component_maps: Vec<PathBuf>,
 }
 
 /// Writes `<stem>.exr`, `<stem>.png` (preview), `<stem>_spp.png` and `<stem>_filter_width.png`
-/// into `dir`, creating it if missing.
+/// into `dir`, creating it if missing, and for each component `<c>` of the frame
+/// `<stem>_spp.<c>.png` and `<stem>_filter_width.<c>.png` (the suffix is the layer's name, as
+/// for the total maps).
 pub fn write_frame_files(
     dir: &Path,
     stem: &str,
@@ -52,21 +57,27 @@ pub fn write_frame_files(
         preview: dir.join(format!("{stem}.png")),
         spp_map: dir.join(format!("{stem}_spp.png")),
         filter_width_map: dir.join(format!("{stem}_filter_width.png")),
+        component_maps: frame
+            .components
+            .iter()
+            .flat_map(|c| [format!("{stem}_spp.{}.png", c.name), format!("{stem}_filter_width.{}.png", c.name)])
+            .map(|name| dir.join(name))
+            .collect(),
     };
     write_exr(&files.exr, frame, info, opts)?;
     write_preview_png(&files.preview, frame)?;
     let (width, height) = (frame.width, frame.height);
     write_false_color_png(&files.spp_map, &frame.spp, width, height, "spp")?;
-    // Unfiltered methods have no map; they filter with width 0 everywhere.
-    let zeros;
-    let filter_width = match &frame.filter_width {
-        Some(widths) => widths,
-        None => {
-            zeros = vec![0.0; frame.pixel_count()];
-            &zeros
-        }
-    };
+    // Unfiltered methods and components have no map; they filter with width 0 everywhere.
+    let zeros = vec![0.0; frame.pixel_count()];
+    let filter_width = frame.filter_width.as_deref().unwrap_or(&zeros);
     write_false_color_png(&files.filter_width_map, filter_width, width, height, "filter width (px)")?;
+    // `write_exr` checked the components' names, which become part of these file names.
+    for (c, paths) in frame.components.iter().zip(files.component_maps.chunks_exact(2)) {
+        write_false_color_png(&paths[0], &c.spp, width, height, &format!("{} spp", c.name))?;
+        let filter_width = c.filter_width.as_deref().unwrap_or(&zeros);
+        write_false_color_png(&paths[1], filter_width, width, height, &format!("{} filter width (px)", c.name))?;
+    }
     Ok(files)
 }
 
@@ -74,6 +85,7 @@ pub fn write_frame_files(
 mod tests {
     use super::test_util::TempDir;
     use super::*;
+    use crate::render::frame::ComponentMaps;
 
     #[test]
     fn writes_all_four_files_creating_the_directory() {
@@ -95,6 +107,7 @@ mod tests {
                 preview: out.join("final.png"),
                 spp_map: out.join("final_spp.png"),
                 filter_width_map: out.join("final_filter_width.png"),
+                component_maps: Vec::new(),
             }
         );
         let read = read_exr(&files.exr).unwrap();
@@ -106,6 +119,39 @@ mod tests {
             // The legend widens and lengthens the canvas of such a small map.
             assert!(map.width() > 3 && map.height() > 5);
         }
+    }
+
+    #[test]
+    fn writes_a_map_per_component_map() {
+        let dir = TempDir::new("frame_files_components");
+        let out = dir.path();
+        let component = |name: &str, width: Option<f32>| ComponentMaps {
+            name: name.into(),
+            spp: (0..15).map(|i| (i % 3) as f32).collect(),
+            filter_width: width.map(|w| vec![w; 15]),
+        };
+        let frame = Frame {
+            width: 3,
+            height: 5,
+            color: vec![[0.25, 0.5, 1.0]; 15],
+            spp: (0..15).map(|i| i as f32).collect(),
+            components: vec![component("shadow", Some(2.0)), component("diffuse", None)],
+            ..Frame::default()
+        };
+        let files = write_frame_files(out, "final", &frame, &RenderInfo::default(), &OutputOptions::default()).unwrap();
+        let names = [
+            "final_spp.shadow.png",
+            "final_filter_width.shadow.png",
+            "final_spp.diffuse.png",
+            "final_filter_width.diffuse.png",
+        ];
+        let expected: Vec<PathBuf> = names.iter().map(|name| out.join(name)).collect();
+        assert_eq!(files.component_maps, expected);
+        for path in &expected {
+            let map = image::open(path).unwrap();
+            assert!(map.width() > 3 && map.height() > 5, "{}", path.display());
+        }
+        assert_eq!(read_exr(&files.exr).unwrap().frame.components.len(), 2);
     }
 
     #[test]

@@ -1,53 +1,63 @@
 //! Frames on the wire: a `Frame` becomes `FrameChunk`s of whole rows (each small enough for a
 //! client with the default 4 MiB receive limit), and a `FrameAssembler` puts them back together.
 //!
-//! Layers, in this order and only those selected (colour alone when none is): `color` (3
-//! channels), `spp` (1), `filter_width` (1), `unfiltered` (3). Pixels are row-major, channels
-//! interleaved, little-endian f32 or f16.
+//! Layers, in this order and only those selected: `color` (3 channels), `spp` (1),
+//! `filter_width` (1), `unfiltered` (3), then with `components` for each component the render
+//! has (`strategy::component_names` order) `spp.<component>` (1) and `filter_width.<component>` (1). When
+//! that leaves nothing, `color` alone. Pixels are row-major, channels interleaved, little-endian
+//! f32 or f16.
 use crate::proto::{
     self, render_update, FrameChunk, FrameComplete, OutputSelection, PixelFormat, RenderStarted, RenderUpdate,
 };
-use crate::render::frame::{Frame, FrameStats, HaltReason};
+use crate::render::frame::{ComponentMaps, Frame, FrameStats, HaltReason};
 use half::f16;
 use std::fmt;
 
 /// Default cap on the pixel bytes of one chunk: far below a stock client's 4 MiB receive limit
-/// even with every layer in f32 at 1920x1080 (17 rows per chunk).
+/// even with every layer in f32 at 1920x1080 (17 rows per chunk; 9 with the layers of three
+/// components).
 pub const DEFAULT_MAX_CHUNK_BYTES: usize = 1 << 20;
 
 /// The largest image a `FrameAssembler` accepts (a guard against absurd headers).
 pub const MAX_ASSEMBLED_PIXELS: u64 = 1 << 28;
 
-/// One per-pixel layer that can be streamed.
+/// What one streamed layer holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LayerKind {
     Color,
     Spp,
     FilterWidth,
     Unfiltered,
+    /// `spp.<component>`, the component at this index of the stream's component names.
+    ComponentSpp(usize),
+    /// `filter_width.<component>`, likewise.
+    ComponentFilterWidth(usize),
 }
 
 impl LayerKind {
-    /// Wire order.
-    pub const ALL: [LayerKind; 4] = [LayerKind::Color, LayerKind::Spp, LayerKind::FilterWidth, LayerKind::Unfiltered];
+    /// The layers of every method, in wire order; the component layers follow them.
+    pub const BASE: [LayerKind; 4] = [LayerKind::Color, LayerKind::Spp, LayerKind::FilterWidth, LayerKind::Unfiltered];
 
-    pub fn name(self) -> &'static str {
+    /// The layer's name, without the `.<component>` suffix of component layers.
+    pub fn stem(self) -> &'static str {
         match self {
             LayerKind::Color => "color",
-            LayerKind::Spp => "spp",
-            LayerKind::FilterWidth => "filter_width",
+            LayerKind::Spp | LayerKind::ComponentSpp(_) => "spp",
+            LayerKind::FilterWidth | LayerKind::ComponentFilterWidth(_) => "filter_width",
             LayerKind::Unfiltered => "unfiltered",
         }
     }
 
+    /// The base layer of that name (component layers need their component: see `LayerSpec`).
     pub fn from_name(name: &str) -> Option<LayerKind> {
-        Self::ALL.into_iter().find(|k| k.name() == name)
+        Self::BASE.into_iter().find(|k| k.stem() == name)
     }
 
     pub fn channels(self) -> usize {
         match self {
             LayerKind::Color | LayerKind::Unfiltered => 3,
             LayerKind::Spp | LayerKind::FilterWidth => 1,
+            LayerKind::ComponentSpp(_) | LayerKind::ComponentFilterWidth(_) => 1,
         }
     }
 
@@ -57,23 +67,55 @@ impl LayerKind {
             LayerKind::Spp => sel.spp,
             LayerKind::FilterWidth => sel.filter_width,
             LayerKind::Unfiltered => sel.unfiltered,
+            LayerKind::ComponentSpp(_) | LayerKind::ComponentFilterWidth(_) => sel.components,
         }
     }
 }
 
-/// The layers `sel` streams, in wire order; colour alone when none is selected.
-pub fn selected_layers(sel: &OutputSelection) -> Vec<LayerKind> {
-    let layers: Vec<LayerKind> = LayerKind::ALL.into_iter().filter(|k| k.selected(sel)).collect();
-    if layers.is_empty() {
-        vec![LayerKind::Color]
-    } else {
-        layers
+/// One streamed layer: what it holds and its name on the wire. Component layers carry their
+/// component's name, so a stream's layers are not a fixed set of static names.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LayerSpec {
+    pub kind: LayerKind,
+    pub name: String,
+}
+
+impl LayerSpec {
+    fn base(kind: LayerKind) -> LayerSpec {
+        LayerSpec { kind, name: kind.stem().to_string() }
+    }
+
+    fn component(kind: LayerKind, component: &str) -> LayerSpec {
+        LayerSpec { kind, name: format!("{}.{component}", kind.stem()) }
     }
 }
 
+/// Whether `name` can be a component's name in a layer name: one non-empty dot-free word, so
+/// that `spp.<name>` parses back unambiguously.
+pub fn is_component_name(name: &str) -> bool {
+    !name.is_empty() && name.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_')
+}
+
+/// The layers `sel` streams for a render whose frames carry the component maps `components`
+/// (`strategy::component_names`), in wire order; colour alone when that leaves none.
+pub fn selected_layers(sel: &OutputSelection, components: &[&str]) -> Vec<LayerSpec> {
+    let mut layers: Vec<LayerSpec> =
+        LayerKind::BASE.into_iter().filter(|k| k.selected(sel)).map(LayerSpec::base).collect();
+    if sel.components {
+        for (i, name) in components.iter().enumerate() {
+            layers.push(LayerSpec::component(LayerKind::ComponentSpp(i), name));
+            layers.push(LayerSpec::component(LayerKind::ComponentFilterWidth(i), name));
+        }
+    }
+    if layers.is_empty() {
+        layers.push(LayerSpec::base(LayerKind::Color));
+    }
+    layers
+}
+
 /// The layer names `sel` streams, in wire order (as in `RenderStarted.layers`).
-pub fn layer_names(sel: &OutputSelection) -> Vec<String> {
-    selected_layers(sel).into_iter().map(|k| k.name().to_string()).collect()
+pub fn layer_names(sel: &OutputSelection, components: &[&str]) -> Vec<String> {
+    selected_layers(sel, components).into_iter().map(|l| l.name).collect()
 }
 
 /// The selection's pixel format; unknown values are treated as f32 (the server rejects them
@@ -91,16 +133,19 @@ fn bytes_per_value(format: PixelFormat) -> usize {
 
 /// Rows per chunk so that a chunk's pixel bytes stay within `max_chunk_bytes` (at least one
 /// row, whatever the cap).
-pub fn rows_per_chunk(width: u32, sel: &OutputSelection, max_chunk_bytes: usize) -> u32 {
-    let per_pixel: usize = selected_layers(sel).iter().map(|k| k.channels() * bytes_per_value(pixel_format(sel))).sum();
+pub fn rows_per_chunk(width: u32, sel: &OutputSelection, components: &[&str], max_chunk_bytes: usize) -> u32 {
+    let value_bytes = bytes_per_value(pixel_format(sel));
+    let per_pixel: usize = selected_layers(sel, components).iter().map(|l| l.kind.channels() * value_bytes).sum();
     let row_bytes = (width as usize).saturating_mul(per_pixel).max(1);
     let rows = (max_chunk_bytes / row_bytes).max(1);
     u32::try_from(rows).unwrap_or(u32::MAX)
 }
 
-/// Checks that every layer of `frame` has one entry per pixel (`encode_rows` slices them).
-pub fn check_frame(frame: &Frame) -> Result<(), String> {
+/// Checks that every layer of `frame` has one entry per pixel and, when `sel` streams
+/// components, that the frame has the maps of each of `components` (`encode_rows` slices them).
+pub fn check_frame(frame: &Frame, sel: &OutputSelection, components: &[&str]) -> Result<(), String> {
     let n = frame.pixel_count();
+    let size = || format!("{}x{}", frame.width, frame.height);
     let lens = [
         ("color", Some(frame.color.len())),
         ("spp", Some(frame.spp.len())),
@@ -109,35 +154,60 @@ pub fn check_frame(frame: &Frame) -> Result<(), String> {
     ];
     for (name, len) in lens {
         if let Some(len) = len.filter(|&len| len != n) {
-            return Err(format!("a {}x{} frame whose {name} layer has {len} pixels", frame.width, frame.height));
+            return Err(format!("a {} frame whose {name} layer has {len} pixels", size()));
+        }
+    }
+    if !sel.components {
+        return Ok(());
+    }
+    for &name in components {
+        let Some(maps) = find_component(frame, name) else {
+            let has: Vec<&str> = frame.components.iter().map(|c| c.name.as_str()).collect();
+            return Err(format!("a frame without the {name:?} component maps (it has {has:?})"));
+        };
+        let lens = [("spp", Some(maps.spp.len())), ("filter_width", maps.filter_width.as_ref().map(Vec::len))];
+        for (stem, len) in lens {
+            if let Some(len) = len.filter(|&len| len != n) {
+                return Err(format!("a {} frame whose {stem}.{name} layer has {len} pixels", size()));
+            }
         }
     }
     Ok(())
 }
 
-/// Encodes rows `y0..y0 + rows` of `frame` as one chunk. The frame must pass `check_frame` and
-/// the rows must lie inside it.
-pub fn encode_rows(frame: &Frame, sel: &OutputSelection, y0: u32, rows: u32) -> FrameChunk {
+fn find_component<'f>(frame: &'f Frame, name: &str) -> Option<&'f ComponentMaps> {
+    frame.components.iter().find(|c| c.name == name)
+}
+
+/// Encodes rows `y0..y0 + rows` of `frame` as one chunk. The frame must pass `check_frame` with
+/// the same `sel` and `components`, and the rows must lie inside it.
+pub fn encode_rows(frame: &Frame, sel: &OutputSelection, components: &[&str], y0: u32, rows: u32) -> FrameChunk {
     let format = pixel_format(sel);
     let width = frame.width as usize;
     let start = y0 as usize * width;
     let end = (y0 as usize + rows as usize) * width;
-    let layers = selected_layers(sel)
+    // A missing map (unfiltered methods' widths) is sent as zeros.
+    let scalars = |data: &mut Vec<u8>, map: Option<&[f32]>| match map {
+        Some(values) => put_scalars(data, &values[start..end], format),
+        None => data.resize(data.len() + (end - start) * bytes_per_value(format), 0),
+    };
+    let component = |i: usize| components.get(i).and_then(|name| find_component(frame, name));
+    let layers = selected_layers(sel, components)
         .into_iter()
-        .map(|kind| {
-            let mut data = Vec::with_capacity((end - start) * kind.channels() * 4);
+        .map(|layer| {
+            let kind = layer.kind;
+            let mut data = Vec::with_capacity((end - start) * kind.channels() * bytes_per_value(format));
             match kind {
                 LayerKind::Color => put_rgb(&mut data, &frame.color[start..end], format),
                 LayerKind::Unfiltered => put_rgb(&mut data, &frame.unfiltered_color()[start..end], format),
                 LayerKind::Spp => put_scalars(&mut data, &frame.spp[start..end], format),
-                LayerKind::FilterWidth => match &frame.filter_width {
-                    Some(w) => put_scalars(&mut data, &w[start..end], format),
-                    None => {
-                        data.resize((end - start) * bytes_per_value(format), 0);
-                    }
-                },
+                LayerKind::FilterWidth => scalars(&mut data, frame.filter_width.as_deref()),
+                LayerKind::ComponentSpp(i) => scalars(&mut data, component(i).map(|c| c.spp.as_slice())),
+                LayerKind::ComponentFilterWidth(i) => {
+                    scalars(&mut data, component(i).and_then(|c| c.filter_width.as_deref()))
+                }
             }
-            proto::Layer { name: kind.name().to_string(), channels: kind.channels() as u32, data }
+            proto::Layer { name: layer.name, channels: kind.channels() as u32, data }
         })
         .collect();
     FrameChunk { pass: frame.stats.pass, x: 0, y: y0, width: frame.width, height: rows, layers }
@@ -151,9 +221,14 @@ pub fn chunk_bands(height: u32, rows_per_chunk: u32) -> impl Iterator<Item = (u3
 
 /// Splits `frame` into row chunks of at most `max_chunk_bytes` pixel bytes each (at least one
 /// row per chunk). The frame must pass `check_frame`.
-pub fn encode_frame(frame: &Frame, sel: &OutputSelection, max_chunk_bytes: usize) -> Vec<FrameChunk> {
-    let rows = rows_per_chunk(frame.width, sel, max_chunk_bytes);
-    chunk_bands(frame.height, rows).map(|(y0, n)| encode_rows(frame, sel, y0, n)).collect()
+pub fn encode_frame(
+    frame: &Frame,
+    sel: &OutputSelection,
+    components: &[&str],
+    max_chunk_bytes: usize,
+) -> Vec<FrameChunk> {
+    let rows = rows_per_chunk(frame.width, sel, components, max_chunk_bytes);
+    chunk_bands(frame.height, rows).map(|(y0, n)| encode_rows(frame, sel, components, y0, n)).collect()
 }
 
 /// The `FrameComplete` message for a frame's stats.
@@ -234,7 +309,9 @@ fn err<T>(msg: impl Into<String>) -> Result<T, AssembleError> {
 /// The stream's header, checked.
 struct Header {
     started: RenderStarted,
-    layers: Vec<LayerKind>,
+    layers: Vec<LayerSpec>,
+    /// The components of the `spp.<c>`/`filter_width.<c>` layers, in order of first mention.
+    components: Vec<String>,
     format: PixelFormat,
 }
 
@@ -251,7 +328,8 @@ struct Partial {
 /// frame on each `FrameComplete`.
 ///
 /// Layers that were not streamed are filled in as follows: `color` zeros, `spp` zeros,
-/// `filter_width` and `unfiltered` `None`.
+/// `filter_width` and `unfiltered` `None`, `components` empty. A component's `filter_width` is
+/// `None` when its layer is all zero (how unfiltered components are sent).
 #[derive(Default)]
 pub struct FrameAssembler {
     header: Option<Header>,
@@ -269,8 +347,14 @@ impl FrameAssembler {
     }
 
     /// The layers the stream carries, once `RenderStarted` arrived.
-    pub fn layers(&self) -> Option<&[LayerKind]> {
+    pub fn layers(&self) -> Option<&[LayerSpec]> {
         self.header.as_ref().map(|h| h.layers.as_slice())
+    }
+
+    /// The components whose maps the stream carries (in `Frame::components` order), once
+    /// `RenderStarted` arrived.
+    pub fn components(&self) -> Option<&[String]> {
+        self.header.as_ref().map(|h| h.components.as_slice())
     }
 
     /// True when chunks of a frame arrived whose `FrameComplete` has not.
@@ -306,20 +390,8 @@ impl FrameAssembler {
             Ok(f) => f,
             Err(_) => return err(format!("unknown pixel format {}", started.format)),
         };
-        let mut layers = Vec::with_capacity(started.layers.len());
-        for name in &started.layers {
-            let Some(kind) = LayerKind::from_name(name) else {
-                return err(format!("unknown layer {name:?} in RenderStarted"));
-            };
-            if layers.contains(&kind) {
-                return err(format!("layer {name:?} listed twice in RenderStarted"));
-            }
-            layers.push(kind);
-        }
-        if layers.is_empty() {
-            return err("RenderStarted lists no layers");
-        }
-        self.header = Some(Header { started, layers, format });
+        let (layers, components) = parse_layers(&started.layers)?;
+        self.header = Some(Header { started, layers, components, format });
         Ok(())
     }
 
@@ -337,15 +409,16 @@ impl FrameAssembler {
             ));
         }
         if chunk.layers.len() != header.layers.len()
-            || chunk.layers.iter().zip(&header.layers).any(|(l, k)| l.name != k.name())
+            || chunk.layers.iter().zip(&header.layers).any(|(l, h)| l.name != h.name)
         {
             let got: Vec<&str> = chunk.layers.iter().map(|l| l.name.as_str()).collect();
-            let want: Vec<&str> = header.layers.iter().map(|k| k.name()).collect();
+            let want: Vec<&str> = header.layers.iter().map(|h| h.name.as_str()).collect();
             return err(format!("chunk at row {y} of pass {} has layers {got:?}, expected {want:?}", chunk.pass));
         }
         let pixels = (cw * ch) as usize;
         let value_bytes = bytes_per_value(header.format);
-        for (layer, kind) in chunk.layers.iter().zip(&header.layers) {
+        for (layer, spec) in chunk.layers.iter().zip(&header.layers) {
+            let kind = spec.kind;
             if layer.channels as usize != kind.channels() {
                 return err(format!(
                     "layer {} has {} channels, expected {}",
@@ -375,7 +448,7 @@ impl FrameAssembler {
             Some(p) => p,
             None => self.partial.insert(Partial {
                 pass: chunk.pass,
-                values: header.layers.iter().map(|k| vec![0.0; image_pixels * k.channels()]).collect(),
+                values: header.layers.iter().map(|l| vec![0.0; image_pixels * l.kind.channels()]).collect(),
                 covered: vec![false; image_pixels],
                 covered_count: 0,
             }),
@@ -389,8 +462,8 @@ impl FrameAssembler {
             cover.fill(true);
         }
         partial.covered_count += pixels;
-        for ((layer, kind), dest) in chunk.layers.iter().zip(&header.layers).zip(&mut partial.values) {
-            let c = kind.channels();
+        for ((layer, spec), dest) in chunk.layers.iter().zip(&header.layers).zip(&mut partial.values) {
+            let c = spec.kind.channels();
             let values = decode_values(&layer.data, header.format);
             let row_len = cw as usize * c;
             for (row, src) in values.chunks_exact(row_len).enumerate() {
@@ -430,7 +503,11 @@ impl FrameAssembler {
             unfiltered: None,
             spp: vec![0.0; n],
             filter_width: None,
-            components: Vec::new(),
+            components: header
+                .components
+                .iter()
+                .map(|name| ComponentMaps { name: name.clone(), spp: vec![0.0; n], filter_width: None })
+                .collect(),
             stats: FrameStats {
                 pass: fc.pass,
                 mean_spp: fc.mean_spp,
@@ -442,16 +519,66 @@ impl FrameAssembler {
                 method_seconds: fc.method_seconds,
             },
         };
-        for (kind, values) in header.layers.iter().zip(partial.values) {
-            match kind {
+        for (spec, values) in header.layers.iter().zip(partial.values) {
+            match spec.kind {
                 LayerKind::Color => frame.color = to_rgb(&values),
                 LayerKind::Unfiltered => frame.unfiltered = Some(to_rgb(&values)),
                 LayerKind::Spp => frame.spp = values,
                 LayerKind::FilterWidth => frame.filter_width = Some(values),
+                LayerKind::ComponentSpp(i) => {
+                    if let Some(c) = frame.components.get_mut(i) {
+                        c.spp = values;
+                    }
+                }
+                LayerKind::ComponentFilterWidth(i) => {
+                    if let Some(c) = frame.components.get_mut(i) {
+                        c.filter_width = Some(values).filter(|w| w.iter().any(|&v| v != 0.0));
+                    }
+                }
             }
         }
         Ok(frame)
     }
+}
+
+/// Parses `RenderStarted.layers`: the base layers by name, `spp.<c>` and `filter_width.<c>` as
+/// component layers. Returns the layers and the components in order of first mention; every
+/// component must have both layers (the server always sends them together).
+fn parse_layers(names: &[String]) -> Result<(Vec<LayerSpec>, Vec<String>), AssembleError> {
+    let mut layers: Vec<LayerSpec> = Vec::with_capacity(names.len());
+    let mut components: Vec<String> = Vec::new();
+    for name in names {
+        if layers.iter().any(|l| l.name == *name) {
+            return err(format!("layer {name:?} listed twice in RenderStarted"));
+        }
+        let kind = match LayerKind::from_name(name) {
+            Some(kind) => kind,
+            None => {
+                let (kind, component): (fn(usize) -> LayerKind, &str) = match name.split_once('.') {
+                    Some(("spp", c)) if is_component_name(c) => (LayerKind::ComponentSpp, c),
+                    Some(("filter_width", c)) if is_component_name(c) => (LayerKind::ComponentFilterWidth, c),
+                    _ => return err(format!("unknown layer {name:?} in RenderStarted")),
+                };
+                let i = components.iter().position(|c| c == component).unwrap_or_else(|| {
+                    components.push(component.to_string());
+                    components.len() - 1
+                });
+                kind(i)
+            }
+        };
+        layers.push(LayerSpec { kind, name: name.clone() });
+    }
+    if layers.is_empty() {
+        return err("RenderStarted lists no layers");
+    }
+    for (i, c) in components.iter().enumerate() {
+        for kind in [LayerKind::ComponentSpp(i), LayerKind::ComponentFilterWidth(i)] {
+            if !layers.iter().any(|l| l.kind == kind) {
+                return err(format!("RenderStarted lists a {c} component without its {}.{c} layer", kind.stem()));
+            }
+        }
+    }
+    Ok((layers, components))
 }
 
 fn to_rgb(values: &[f32]) -> Vec<[f32; 3]> {
@@ -459,280 +586,4 @@ fn to_rgb(values: &[f32]) -> Vec<[f32; 3]> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use prost::Message;
-
-    fn test_frame(width: u32, height: u32) -> Frame {
-        let n = (width * height) as usize;
-        let v = |i: usize, k: usize| ((i * 7 + k * 13) % 101) as f32 * 0.37 + 1e-3 * i as f32;
-        Frame {
-            width,
-            height,
-            color: (0..n).map(|i| [v(i, 0), v(i, 1), v(i, 2)]).collect(),
-            unfiltered: Some((0..n).map(|i| [v(i, 3), v(i, 4), -v(i, 5)]).collect()),
-            spp: (0..n).map(|i| (i % 5) as f32 * 4.0).collect(),
-            filter_width: Some((0..n).map(|i| v(i, 6) * 0.01).collect()),
-            components: Vec::new(),
-            stats: FrameStats {
-                pass: 3,
-                mean_spp: 12.5,
-                rays_traced: 12345,
-                elapsed_seconds: 0.25,
-                is_final: true,
-                halt_reason: HaltReason::MaxPasses,
-                dropped_samples: 2,
-                method_seconds: 0.01,
-            },
-        }
-    }
-
-    fn all_layers(format: PixelFormat) -> OutputSelection {
-        OutputSelection {
-            color: true,
-            spp: true,
-            filter_width: true,
-            unfiltered: true,
-            components: false,
-            format: format as i32,
-        }
-    }
-
-    fn started(frame: &Frame, sel: &OutputSelection) -> RenderStarted {
-        RenderStarted {
-            width: frame.width,
-            height: frame.height,
-            layers: layer_names(sel),
-            format: sel.format,
-            ..Default::default()
-        }
-    }
-
-    fn round_trip(frame: &Frame, sel: &OutputSelection, max_chunk_bytes: usize) -> Frame {
-        let mut asm = FrameAssembler::new();
-        asm.start(started(frame, sel)).unwrap();
-        for chunk in encode_frame(frame, sel, max_chunk_bytes) {
-            asm.chunk(chunk).unwrap();
-        }
-        asm.complete(&frame_complete(&frame.stats)).unwrap()
-    }
-
-    fn bits(v: &[[f32; 3]]) -> Vec<u32> {
-        v.iter().flatten().map(|x| x.to_bits()).collect()
-    }
-
-    #[test]
-    fn layer_order_and_default() {
-        assert_eq!(layer_names(&OutputSelection::default()), vec!["color"]);
-        let sel = all_layers(PixelFormat::F32);
-        assert_eq!(layer_names(&sel), vec!["color", "spp", "filter_width", "unfiltered"]);
-        let sel = OutputSelection { unfiltered: true, spp: true, ..Default::default() };
-        assert_eq!(layer_names(&sel), vec!["spp", "unfiltered"]);
-    }
-
-    #[test]
-    fn f32_round_trip_is_bit_exact() {
-        let frame = test_frame(16, 9);
-        let sel = all_layers(PixelFormat::F32);
-        for max in [1, 100, 16 * 8 * 4 * 3, DEFAULT_MAX_CHUNK_BYTES] {
-            let back = round_trip(&frame, &sel, max);
-            assert_eq!((back.width, back.height), (16, 9));
-            assert_eq!(bits(&back.color), bits(&frame.color));
-            assert_eq!(bits(back.unfiltered.as_ref().unwrap()), bits(frame.unfiltered.as_ref().unwrap()));
-            let b: Vec<u32> = back.spp.iter().map(|x| x.to_bits()).collect();
-            let f: Vec<u32> = frame.spp.iter().map(|x| x.to_bits()).collect();
-            assert_eq!(b, f);
-            let b: Vec<u32> = back.filter_width.as_ref().unwrap().iter().map(|x| x.to_bits()).collect();
-            let f: Vec<u32> = frame.filter_width.as_ref().unwrap().iter().map(|x| x.to_bits()).collect();
-            assert_eq!(b, f);
-            assert_eq!(back.stats, frame.stats);
-        }
-    }
-
-    #[test]
-    fn f16_round_trip_within_precision() {
-        let frame = test_frame(7, 3);
-        let sel = all_layers(PixelFormat::F16);
-        let back = round_trip(&frame, &sel, 64);
-        let close = |a: f32, b: f32| (a - b).abs() <= b.abs() * 2f32.powi(-11) + 1e-7;
-        for (a, b) in back.color.iter().flatten().zip(frame.color.iter().flatten()) {
-            assert!(close(*a, *b), "{a} vs {b}");
-        }
-        let (bu, fu) = (back.unfiltered.unwrap(), frame.unfiltered.unwrap());
-        for (a, b) in bu.iter().flatten().zip(fu.iter().flatten()) {
-            assert!(close(*a, *b), "{a} vs {b}");
-        }
-        for (a, b) in back.spp.iter().zip(&frame.spp) {
-            assert!(close(*a, *b), "{a} vs {b}");
-        }
-        for (a, b) in back.filter_width.unwrap().iter().zip(frame.filter_width.unwrap().iter()) {
-            assert!(close(*a, *b), "{a} vs {b}");
-        }
-    }
-
-    #[test]
-    fn odd_sizes_and_one_row_chunks() {
-        let frame = test_frame(7, 3);
-        let sel = all_layers(PixelFormat::F32);
-        // A cap below one row still sends one row per chunk.
-        let chunks = encode_frame(&frame, &sel, 1);
-        assert_eq!(chunks.len(), 3);
-        for (i, c) in chunks.iter().enumerate() {
-            assert_eq!((c.x, c.y, c.width, c.height), (0, i as u32, 7, 1));
-            assert_eq!(c.pass, 3);
-            let channels: Vec<u32> = c.layers.iter().map(|l| l.channels).collect();
-            assert_eq!(channels, vec![3, 1, 1, 3]);
-        }
-        // Two rows per chunk: 2 + 1.
-        let row = 7 * 8 * 4;
-        let chunks = encode_frame(&frame, &sel, 2 * row + row / 2);
-        let heights: Vec<u32> = chunks.iter().map(|c| c.height).collect();
-        assert_eq!(heights, vec![2, 1]);
-        let back = round_trip(&frame, &sel, 2 * row + row / 2);
-        assert_eq!(bits(&back.color), bits(&frame.color));
-    }
-
-    #[test]
-    fn chunk_size_limits_respected() {
-        let frame = test_frame(33, 17);
-        for format in [PixelFormat::F32, PixelFormat::F16] {
-            let sel = all_layers(format);
-            for max in [33 * 8 * 4, 2000, 5000, 20_000] {
-                let chunks = encode_frame(&frame, &sel, max);
-                let rows: u32 = chunks.iter().map(|c| c.height).sum();
-                assert_eq!(rows, 17);
-                for c in &chunks {
-                    let bytes: usize = c.layers.iter().map(|l| l.data.len()).sum();
-                    assert!(bytes <= max, "{bytes} > {max}");
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn default_cap_fits_a_4_mib_client_at_1080p() {
-        let (w, h) = (1920u32, 1080u32);
-        let n = (w * h) as usize;
-        let frame = Frame {
-            width: w,
-            height: h,
-            color: vec![[1.0; 3]; n],
-            unfiltered: None,
-            spp: vec![1.0; n],
-            filter_width: None,
-            components: Vec::new(),
-            stats: FrameStats::default(),
-        };
-        let sel = all_layers(PixelFormat::F32);
-        let chunks = encode_frame(&frame, &sel, DEFAULT_MAX_CHUNK_BYTES);
-        assert!(chunks.len() > 1);
-        for c in chunks {
-            let msg = RenderUpdate { kind: Some(render_update::Kind::Chunk(c)) };
-            assert!(msg.encoded_len() < 4 << 20);
-        }
-    }
-
-    #[test]
-    fn unfiltered_frame_sends_color_and_zero_widths() {
-        let mut frame = test_frame(5, 4);
-        frame.unfiltered = None;
-        frame.filter_width = None;
-        let sel = all_layers(PixelFormat::F32);
-        let back = round_trip(&frame, &sel, 1);
-        assert_eq!(bits(back.unfiltered.as_ref().unwrap()), bits(&frame.color));
-        assert!(back.filter_width.unwrap().iter().all(|&w| w == 0.0));
-    }
-
-    #[test]
-    fn missing_row_is_an_error() {
-        let frame = test_frame(7, 3);
-        let sel = all_layers(PixelFormat::F32);
-        let mut asm = FrameAssembler::new();
-        asm.start(started(&frame, &sel)).unwrap();
-        let chunks = encode_frame(&frame, &sel, 1);
-        asm.chunk(chunks[0].clone()).unwrap();
-        asm.chunk(chunks[2].clone()).unwrap();
-        let e = asm.complete(&frame_complete(&frame.stats)).unwrap_err();
-        assert!(e.0.contains("missing 1 of 3 rows (first: row 1)"), "{e}");
-    }
-
-    #[test]
-    fn malformed_chunks_are_errors() {
-        let frame = test_frame(7, 3);
-        let sel = all_layers(PixelFormat::F32);
-        let chunks = encode_frame(&frame, &sel, 1);
-        let fresh = || {
-            let mut asm = FrameAssembler::new();
-            asm.start(started(&frame, &sel)).unwrap();
-            asm
-        };
-
-        // Before RenderStarted.
-        assert!(FrameAssembler::new().chunk(chunks[0].clone()).is_err());
-        // Outside the image.
-        let mut c = chunks[2].clone();
-        c.y = 3;
-        let e = fresh().chunk(c).unwrap_err();
-        assert!(e.0.contains("outside"), "{e}");
-        let mut c = chunks[0].clone();
-        c.x = 1;
-        assert!(fresh().chunk(c).is_err());
-        // Wrong layers.
-        let mut c = chunks[0].clone();
-        c.layers.swap(0, 1);
-        let e = fresh().chunk(c).unwrap_err();
-        assert!(e.0.contains("expected [\"color\""), "{e}");
-        let mut c = chunks[0].clone();
-        c.layers.pop();
-        assert!(fresh().chunk(c).is_err());
-        // Wrong byte length.
-        let mut c = chunks[0].clone();
-        c.layers[1].data.pop();
-        let e = fresh().chunk(c).unwrap_err();
-        assert!(e.0.contains("bytes, expected"), "{e}");
-        // Duplicate row.
-        let mut asm = fresh();
-        asm.chunk(chunks[1].clone()).unwrap();
-        assert!(asm.chunk(chunks[1].clone()).is_err());
-        // Pass mismatch.
-        let mut asm = fresh();
-        asm.chunk(chunks[0].clone()).unwrap();
-        let mut c = chunks[1].clone();
-        c.pass = 4;
-        assert!(asm.chunk(c).is_err());
-        // Unknown layer in RenderStarted.
-        let mut s = started(&frame, &sel);
-        s.layers.push("depth".into());
-        assert!(FrameAssembler::new().start(s).is_err());
-        // Empty update.
-        assert!(fresh().push(RenderUpdate { kind: None }).is_err());
-    }
-
-    #[test]
-    fn push_drives_a_whole_stream() {
-        let frame = test_frame(9, 5);
-        let sel = OutputSelection { spp: true, format: PixelFormat::F32 as i32, ..Default::default() };
-        let mut asm = FrameAssembler::new();
-        let mut updates = vec![render_update::Kind::Started(started(&frame, &sel))];
-        for pass in 0..2 {
-            let mut f = frame.clone();
-            f.stats.pass = pass;
-            f.stats.is_final = pass == 1;
-            updates.extend(encode_frame(&f, &sel, 100).into_iter().map(render_update::Kind::Chunk));
-            updates.push(render_update::Kind::FrameComplete(frame_complete(&f.stats)));
-        }
-        let mut frames = Vec::new();
-        for kind in updates {
-            if let Some(f) = asm.push(RenderUpdate { kind: Some(kind) }).unwrap() {
-                frames.push(f);
-            }
-        }
-        assert_eq!(frames.len(), 2);
-        assert_eq!(frames[1].spp, frame.spp);
-        assert!(frames[1].stats.is_final && !frames[0].stats.is_final);
-        // Colour was not streamed: zeros.
-        assert!(frames[1].color.iter().flatten().all(|&v| v == 0.0));
-        assert!(frames[1].unfiltered.is_none() && frames[1].filter_width.is_none());
-        assert!(!asm.in_frame());
-    }
-}
+mod tests;

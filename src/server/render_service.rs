@@ -10,6 +10,7 @@ use crate::proto::{
 };
 use crate::render::frame::Frame;
 use crate::render::progressive::{self, CancelToken, RenderError, RenderJob};
+use crate::render::strategy::component_names;
 use std::sync::Arc;
 use std::time::Instant;
 use tokio::sync::{mpsc, Semaphore};
@@ -99,6 +100,8 @@ impl Renderer for RenderService {
                     Status::invalid_argument(e.to_string())
                 })?;
         let job = prepared.job;
+        // Known before rendering, so that `RenderStarted` can announce every layer.
+        let components = component_names(&job);
 
         let started = RenderStarted {
             width: job.scene.width(),
@@ -106,7 +109,7 @@ impl Renderer for RenderService {
             method: crate::job::method_to_proto(job.method) as i32,
             seed: job.seed,
             triangles: u32::try_from(job.scene.triangle_count()).unwrap_or(u32::MAX),
-            layers: frames::layer_names(&outputs),
+            layers: frames::layer_names(&outputs, &components),
             format: outputs.format,
         };
         let (tx, rx) = mpsc::channel::<UpdateResult>(CHANNEL_CAPACITY);
@@ -131,6 +134,7 @@ impl Renderer for RenderService {
         let task = RenderTask {
             job,
             outputs,
+            components,
             frame_every,
             max_chunk_bytes: self.max_chunk_bytes,
             tx: tx.clone(),
@@ -208,6 +212,8 @@ impl Renderer for RenderService {
 struct RenderTask {
     job: RenderJob,
     outputs: OutputSelection,
+    /// The job's `component_names`, as announced in `RenderStarted.layers`.
+    components: Vec<&'static str>,
     frame_every: u32,
     max_chunk_bytes: usize,
     tx: mpsc::Sender<UpdateResult>,
@@ -273,10 +279,12 @@ impl RenderTask {
                 frame.width, frame.height
             ))));
         }
-        frames::check_frame(frame).map_err(|e| TaskError::Status(Status::internal(format!("render produced {e}"))))?;
-        let rows = frames::rows_per_chunk(frame.width, &self.outputs, self.max_chunk_bytes);
+        let (sel, components) = (&self.outputs, self.components.as_slice());
+        frames::check_frame(frame, sel, components)
+            .map_err(|e| TaskError::Status(Status::internal(format!("render produced {e}"))))?;
+        let rows = frames::rows_per_chunk(frame.width, sel, components, self.max_chunk_bytes);
         for (y0, n) in frames::chunk_bands(frame.height, rows) {
-            let chunk = frames::encode_rows(frame, &self.outputs, y0, n);
+            let chunk = frames::encode_rows(frame, sel, components, y0, n);
             self.tx.blocking_send(update(render_update::Kind::Chunk(chunk))).map_err(|_| TaskError::ClientGone)?;
         }
         let complete = frame_complete(&frame.stats);
