@@ -115,6 +115,7 @@ pub fn prepare(
             initial_spp,
             aaf: Default::default(),
             integrand,
+            pixel_centers: settings.pixel_centers,
             indirect: Default::default(),
         },
         info: RenderInfo {
@@ -210,6 +211,9 @@ fn merge_settings(scene: Option<&proto::RenderSettings>, req: Option<&proto::Ren
         }
         if r.ambient_occlusion {
             s.ambient_occlusion = true;
+        }
+        if r.pixel_centers {
+            s.pixel_centers = true;
         }
         if r.ambient_occlusion_distance != 0.0 {
             s.ambient_occlusion_distance = r.ambient_occlusion_distance;

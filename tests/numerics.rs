@@ -2,13 +2,14 @@
 //! and filter-width formulas, the screen-space filter, the light and BRDF radiometry, ray
 //! casting, and scene validation. Every result must be finite, non-negative and bounded; bad
 //! numbers in a scene must come back as an error naming a field, never as a panic or a NaN image.
-use glam::{DVec2, Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use proptest::prelude::*;
 use std::sync::Arc;
 use wedge::proto;
-use wedge::render::aaf::filter::{separable, FilterOptions, FilterPixel};
 use wedge::render::aaf::params::{filter_width, sample_count, slope, AafConstants, PixelGeometry};
+use wedge::render::filter::{separable, FilterOptions, FilterPixel};
 use wedge::render::frame::Frame;
+use wedge::render::indirect::params as gi;
 use wedge::render::light::{EmissionProfile, RectLight};
 use wedge::render::material::{Brdf, GlossyModel};
 use wedge::render::progressive::{render, CancelToken, Halt, Method, RenderJob};
@@ -61,6 +62,31 @@ proptest! {
     }
 
     #[test]
+    fn indirect_rates_and_widths_are_finite_and_bounded(
+        z_min in prop_oneof![Just(0.0), Just(f64::INFINITY), magnitude(1e-9, 1e9)],
+        ratio in prop_oneof![Just(1.0), magnitude(1.0, 1e9)],
+        d in prop_oneof![Just(0.0), magnitude(1e-9, 1e5)],
+        m in prop_oneof![Just(0.0), Just(1e6), magnitude(1e-6, 1e6)],
+        phong in any::<bool>(),
+        mu in magnitude(1e-3, 1e3),
+    ) {
+        // AAF for indirect light (Mehta et al. 2013, Eqs. 15-21) over the whole domain,
+        // including glossy exponents up to 1e6 and reflectors at the receiver or at infinity.
+        let c = gi::IndirectConstants::default();
+        let model = if phong { GlossyModel::Phong } else { GlossyModel::BlinnPhong };
+        for (omega_h, gamma) in [(c.omega_h_diffuse, c.gamma_diffuse), (gi::omega_h_glossy(model, m, &c), gi::gamma_glossy(m))] {
+            prop_assert!(omega_h.is_finite() && omega_h >= c.omega_h_diffuse && (0.0..=1.0).contains(&gamma));
+            let r = gi::Reflectors { z_min, z_max: z_min * ratio, omega_h, d };
+            let b = gi::filter_width(&r, &c, mu);
+            prop_assert!(b.is_finite() && b >= 0.0, "{r:?} mu {mu}: beta {b}");
+            let b2 = gi::filter_width(&r, &c, 2.0 * mu);
+            prop_assert!((b2 * 2.0 - b).abs() <= 1e-12 * b.max(1e-300), "{r:?} mu {mu}: {b} then {b2}");
+            let n = gi::clamp_samples(gi::sample_count(&r, &c, mu, gamma), &c, mu);
+            prop_assert!(n.is_finite() && n >= c.min_samples && n <= (c.max_samples * mu).max(c.min_samples), "{r:?}: {n}");
+        }
+    }
+
+    #[test]
     fn per_ray_slopes_are_never_negative(t in 0.0f64..1e6, l in 1e-9f64..1e6) {
         let s = slope(t, l);
         prop_assert!(s >= 0.0 && !s.is_nan());
@@ -77,7 +103,7 @@ proptest! {
         let mut next = || { rng = rng.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407); (rng >> 11) as f64 / (1u64 << 53) as f64 };
         let pixels: Vec<FilterPixel> = (0..w * h)
             .map(|i| FilterPixel {
-                plane: DVec2::new((i % w) as f64, (i / w) as f64) * 0.01,
+                position: DVec3::new((i % w) as f64, (i / w) as f64, next()) * 0.01,
                 normal: if next() < 0.2 { Vec3::X } else { Vec3::Z },
                 object: (next() * 3.0) as u32,
                 valid: next() < 0.9,
@@ -87,7 +113,8 @@ proptest! {
             .collect();
         let values: Vec<[f64; 3]> = (0..w * h).map(|_| [next(), next() * 10.0, 0.0]).collect();
         let mut out = values.clone();
-        separable(&pixels, &mut out, w, &FilterOptions { object_id_check: next() < 0.5, ..FilterOptions::default() });
+        let o = FilterOptions { object_id_check: next() < 0.5, tangent_plane: next() < 0.5, ..FilterOptions::default() };
+        separable(&pixels, &mut out, w, &o);
         for c in 0..3 {
             let lo = values.iter().map(|v| v[c]).fold(f64::INFINITY, f64::min);
             let hi = values.iter().map(|v| v[c]).fold(f64::NEG_INFINITY, f64::max);
@@ -203,6 +230,7 @@ proptest! {
             initial_spp: 1,
             aaf: Default::default(),
             integrand: Default::default(),
+            pixel_centers: false,
             indirect: Default::default(),
         };
         let mut last: Option<Frame> = None;

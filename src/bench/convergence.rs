@@ -41,6 +41,7 @@ pub fn job(
         initial_spp: 1,
         aaf: Default::default(),
         integrand: Default::default(),
+        pixel_centers: false,
         indirect: Default::default(),
     }
 }

@@ -20,6 +20,8 @@ pub struct ReferenceKey<'a> {
     pub bounces: u32,
     pub spp: f64,
     pub seed: u64,
+    /// Samples at pixel centres (no antialiasing): another ground truth.
+    pub pixel_centers: bool,
 }
 
 impl ReferenceKey<'_> {
@@ -32,6 +34,9 @@ impl ReferenceKey<'_> {
         // The crate version: a renderer change (a new release) never reuses old references.
         let version = hash_words(&env!("CARGO_PKG_VERSION").bytes().map(u64::from).collect::<Vec<_>>());
         words.extend([bytes.len() as u64, self.bounces as u64, self.spp.to_bits(), self.seed, version]);
+        if self.pixel_centers {
+            words.push(0x63_656e_7472_6573);
+        }
         format!("{:016x}", hash_words(&words))
     }
 }
@@ -50,7 +55,8 @@ pub fn cached_reference(
             return Ok((img.frame, true));
         }
     }
-    let j = job(scene, Method::Uniform, 64, key.spp, key.seed, key.bounces);
+    let mut j = job(scene, Method::Uniform, 64, key.spp, key.seed, key.bounces);
+    j.pixel_centers = key.pixel_centers;
     let frame = final_frame(&j).context("the reference render stopped early")?;
     std::fs::create_dir_all(cache_dir).with_context(|| format!("cannot create {}", cache_dir.display()))?;
     let info = RenderInfo {
@@ -84,7 +90,9 @@ mod tests {
     #[test]
     fn the_key_changes_with_everything_the_image_depends_on() {
         let mut scene = crate::scene::builtin::get("cornell").unwrap();
-        let k = |s: &proto::Scene, b: u32, spp: f64| ReferenceKey { scene: s, bounces: b, spp, seed: 1 }.digest();
+        let k = |s: &proto::Scene, b: u32, spp: f64| {
+            ReferenceKey { scene: s, bounces: b, spp, seed: 1, pixel_centers: false }.digest()
+        };
         let base = k(&scene, 3, 1024.0);
         assert_eq!(base, k(&scene, 3, 1024.0));
         assert_ne!(base, k(&scene, 2, 1024.0));
@@ -100,7 +108,7 @@ mod tests {
         s.camera.as_mut().unwrap().width = 8;
         s.camera.as_mut().unwrap().height = 6;
         let scene = Arc::new(crate::scene::compile(&s, &Default::default(), None).unwrap());
-        let key = ReferenceKey { scene: &s, bounces: 0, spp: 4.0, seed: 3 };
+        let key = ReferenceKey { scene: &s, bounces: 0, spp: 4.0, seed: 3, pixel_centers: false };
         let (a, cached_a) = cached_reference(&dir, &key, scene.clone(), "curved").unwrap();
         let (b, cached_b) = cached_reference(&dir, &key, scene, "curved").unwrap();
         assert!(!cached_a && cached_b);

@@ -27,6 +27,9 @@ pub struct BenchConfig {
     pub seed: u64,
     /// Indirect bounces for every scene (None: each scene's own setting).
     pub bounces: Option<u32>,
+    /// Shade pixel centres (no antialiasing), the AAF papers' setting, in every render
+    /// including the reference.
+    pub pixel_centers: bool,
     pub out: PathBuf,
     pub name: String,
     /// The command line, recorded in the report.
@@ -82,7 +85,13 @@ pub fn bench_scene(name: &str, mut scene: proto::Scene, cfg: &BenchConfig) -> an
     let (reference, reference_note) = match &cfg.reference {
         Some(path) => (load_reference(path, cfg.width, cfg.height)?, format!("given: {}", path.display())),
         None => {
-            let key = ReferenceKey { scene: &scene, bounces, spp: cfg.reference_spp, seed: cfg.seed + 1_000_003 };
+            let key = ReferenceKey {
+                scene: &scene,
+                bounces,
+                spp: cfg.reference_spp,
+                seed: cfg.seed + 1_000_003,
+                pixel_centers: cfg.pixel_centers,
+            };
             let (f, cached) = cached_reference(&cfg.out.join("cache"), &key, compiled.clone(), name)?;
             let how =
                 if cached { "cached".to_string() } else { format!("rendered in {:.1} s", t.elapsed().as_secs_f64()) };
@@ -96,7 +105,8 @@ pub fn bench_scene(name: &str, mut scene: proto::Scene, cfg: &BenchConfig) -> an
         let passes = if method == Method::Uniform { cfg.uniform_passes } else { cfg.passes };
         let mut per_seed = Vec::new();
         for r in 0..cfg.repeats.max(1) {
-            let j = super::convergence::job(compiled.clone(), method, passes, 0.0, cfg.seed + r as u64, bounces);
+            let mut j = super::convergence::job(compiled.clone(), method, passes, 0.0, cfg.seed + r as u64, bounces);
+            j.pixel_centers = cfg.pixel_centers;
             let pts = sweep(&j, &reference);
             runs.extend(pts.iter().cloned().map(|p| (r, p)));
             per_seed.push(pts);
@@ -117,8 +127,14 @@ pub fn markdown(results: &[SceneResult], cfg: &BenchConfig) -> String {
     for r in results {
         let _ = writeln!(
             s,
-            "### {} ({}x{}, {} bounces; reference: {}; medians of {} seeds)\n",
-            r.name, cfg.width, cfg.height, r.bounces, r.reference_note, cfg.repeats
+            "### {} ({}x{}, {} bounces{}; reference: {}; medians of {} seeds)\n",
+            r.name,
+            cfg.width,
+            cfg.height,
+            r.bounces,
+            if cfg.pixel_centers { ", pixel centres" } else { "" },
+            r.reference_note,
+            cfg.repeats
         );
         let _ = writeln!(s, "| method | pass | mean spp | seconds | CPU s | method share | RMSE | rel. MSE | speedup over uniform at equal error (samples, time) |");
         let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
@@ -173,7 +189,7 @@ pub fn write_outputs(results: &[SceneResult], cfg: &BenchConfig) -> anyhow::Resu
         .map(|r| {
             let base = r.curves.iter().find(|c| c.method == Method::Uniform).map(|c| c.points.as_slice()).unwrap_or(&[]);
             json!({
-                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces,
+                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces, "pixel_centers": cfg.pixel_centers,
                 "reference": r.reference_note,
                 "runs": r.runs.iter().map(|(seed, p)| { let mut v = point(p); v["repeat"] = json!(seed); v }).collect::<Vec<_>>(),
                 "medians": r.curves.iter().flat_map(|c| c.points.iter().map(|p| {
@@ -272,6 +288,7 @@ mod tests {
             repeats: 2,
             seed: 1,
             bounces: None,
+            pixel_centers: false,
             out: out.clone(),
             name: "t".into(),
             command: "test".into(),

@@ -49,6 +49,9 @@ pub struct ConvergenceArgs {
     /// Indirect bounces, overriding each scene's own setting.
     #[arg(long)]
     pub bounces: Option<u32>,
+    /// Shade pixel centres without antialiasing (the AAF papers' setting), reference included.
+    #[arg(long)]
+    pub pixel_centers: bool,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Output directory.
@@ -205,6 +208,7 @@ fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
         repeats: a.repeats.unwrap_or(if q { 2 } else { 3 }),
         seed: a.seed,
         bounces: a.bounces,
+        pixel_centers: a.pixel_centers,
         out: a.out.clone(),
         name: a.name.clone().unwrap_or_else(|| if q { "quick".into() } else { "full".into() }),
         command: std::env::args().collect::<Vec<_>>().join(" "),

@@ -100,6 +100,9 @@ pub struct RenderArgs {
     /// Samples per pixel of the first pass (uniform method).
     #[arg(long)]
     pub initial_spp: Option<u32>,
+    /// Shade every sample at its pixel's centre (no antialiasing), as the AAF papers do.
+    #[arg(long)]
+    pub pixel_centers: bool,
     /// Render ambient occlusion (the open fraction of each visible point's hemisphere)
     /// instead of light.
     #[arg(long)]

@@ -87,6 +87,7 @@ pub fn build_request(args: &RenderArgs, source: SceneSource) -> anyhow::Result<p
             bounces: args.bounces,
             initial_spp: args.initial_spp.unwrap_or(0),
             ambient_occlusion: args.ao,
+            pixel_centers: args.pixel_centers,
             ambient_occlusion_distance: args.ao_distance.unwrap_or(0.0),
         }),
         seed: args.seed,

@@ -1,5 +1,5 @@
 //! Per-pixel running estimates (f64 sums) and the parallel loop that adds samples to them.
-use super::integrator::{ambient_occlusion, trace_path};
+use super::integrator::sample_from;
 use super::progressive::{Integrand, RenderError};
 use super::sampler::PixelSampler;
 use super::scene::Scene;
@@ -58,6 +58,7 @@ impl Film {
         seed: u64,
         bounces: u32,
         integrand: Integrand,
+        pixel_centers: bool,
         count: &(dyn Fn(usize) -> u32 + Sync),
         stop: &StopCheck,
     ) -> Result<Tally, RenderError> {
@@ -77,17 +78,26 @@ impl Film {
                             return t;
                         }
                         let index = y * w + x;
-                        for _ in 0..count(index) {
+                        let n = count(index);
+                        // With pixel centres, every sample of the pass starts at the same hit.
+                        let centre = cam.direction(x as f32 + 0.5, y as f32 + 0.5);
+                        let centre_hit = (pixel_centers && n > 0).then(|| {
+                            t.rays += 1;
+                            scene.intersect(cam.position, centre, 0.0)
+                        });
+                        for _ in 0..n {
                             let mut sampler = PixelSampler::new(seed, index as u32, px.taken);
                             px.taken += 1;
                             let j = sampler.next_2d();
-                            let dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
-                            let p = match integrand {
-                                Integrand::Radiance => trace_path(scene, cam.position, dir, bounces, &mut sampler),
-                                Integrand::AmbientOcclusion { max_distance } => {
-                                    ambient_occlusion(scene, cam.position, dir, max_distance, &mut sampler)
+                            let (dir, hit) = match centre_hit {
+                                Some(hit) => (centre, hit),
+                                None => {
+                                    let dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
+                                    t.rays += 1;
+                                    (dir, scene.intersect(cam.position, dir, 0.0))
                                 }
                             };
+                            let p = sample_from(scene, hit, -dir, integrand, bounces, &mut sampler);
                             t.rays += p.rays as u64;
                             if p.radiance.is_finite() {
                                 for c in 0..3 {

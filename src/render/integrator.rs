@@ -4,6 +4,7 @@
 use super::frame_basis::{cosine_hemisphere, to_world};
 use super::light::Light;
 use super::material::Material;
+use super::progressive::Integrand;
 use super::sampler::PixelSampler;
 use super::scene::{Scene, Surface};
 use glam::Vec3;
@@ -88,22 +89,25 @@ pub fn trace_path(scene: &Scene, origin: Vec3, dir: Vec3, bounces: u32, sampler:
     r
 }
 
-/// One ambient-occlusion sample for the camera ray (origin, dir): 1 when a cosine-distributed
-/// ray from the visible point escapes (meets nothing nearer than `max_distance`), else 0;
-/// 0 where the camera ray meets nothing.
-pub fn ambient_occlusion(
+/// One sample of `integrand` for a camera ray (towards -`wo`) that found `hit` (None: it left
+/// the scene, which is black). The rays counted exclude the camera ray.
+pub fn sample_from(
     scene: &Scene,
-    origin: Vec3,
-    dir: Vec3,
-    max_distance: f32,
+    hit: Option<Surface>,
+    wo: Vec3,
+    integrand: Integrand,
+    bounces: u32,
     sampler: &mut PixelSampler,
 ) -> PathResult {
-    let Some(s) = scene.intersect(origin, dir, 0.0) else {
-        return PathResult { radiance: Vec3::ZERO, rays: 1 };
-    };
-    let (hit, rays) = occlusion_ray(scene, &s, sampler.next_2d(), max_distance);
-    let open = if hit.is_some() { 0.0 } else { 1.0 };
-    PathResult { radiance: Vec3::splat(open), rays: 1 + rays }
+    let Some(s) = hit else { return PathResult::default() };
+    match integrand {
+        Integrand::Radiance => radiance_from(scene, s, wo, bounces, sampler, DirectLights::All),
+        // The open fraction: 1 when a cosine-distributed ray escapes.
+        Integrand::AmbientOcclusion { max_distance } => {
+            let (z, rays) = occlusion_ray(scene, &s, sampler.next_2d(), max_distance);
+            PathResult { radiance: Vec3::splat(if z.is_some() { 0.0 } else { 1.0 }), rays }
+        }
+    }
 }
 
 /// Traces the cosine-distributed ray of `u` about the shading normal of `s`: the hit distance

@@ -94,6 +94,9 @@ pub struct RenderJob {
     pub initial_spp: u32,
     /// Light or ambient occlusion.
     pub integrand: Integrand,
+    /// Shade every sample at its pixel's centre (the AAF papers' setting, no antialiasing):
+    /// the ground truth is then the pixel-centre image. Default: samples jittered over the pixel.
+    pub pixel_centers: bool,
     /// Parameters of the AAF family of methods (soft shadows).
     pub aaf: crate::render::aaf::AafOptions,
     /// Parameters of the AAF family of methods (indirect light).

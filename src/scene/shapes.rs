@@ -24,7 +24,8 @@ pub const DEFAULT_SPHERE_BANDS: u32 = 24;
 pub const MAX_SPHERE_BANDS: u32 = 2048;
 
 pub fn sphere_triangles(bands: u32) -> u64 {
-    4 * bands as u64 * bands as u64
+    // 2 per quad of the grid, but one per quad in the two rows that touch a pole.
+    4 * bands as u64 * bands as u64 - 4 * bands as u64
 }
 
 pub fn quad(path: &str, q: &proto::Quad) -> FieldResult<TriMesh> {
@@ -101,9 +102,14 @@ pub fn sphere(path: &str, s: &proto::Sphere) -> FieldResult<TriMesh> {
     for i in 0..bands {
         for j in 0..segs {
             let (a, b) = (i * row + j, (i + 1) * row + j);
-            // Outward winding; the pole triangles of zero area are dropped by the builder.
-            m.indices.push([a, a + 1, b]);
-            m.indices.push([a + 1, b + 1, b]);
+            // Outward winding. The rows touching a pole have one triangle per quad: the other
+            // would have two vertices on the pole and no area.
+            if i > 0 {
+                m.indices.push([a, a + 1, b]);
+            }
+            if i + 1 < bands {
+                m.indices.push([a + 1, b + 1, b]);
+            }
         }
     }
     Ok(m)

@@ -30,6 +30,7 @@ use super::material::Material;
 use super::progressive::{RenderError, RenderJob};
 use super::sampler::PixelSampler;
 use super::scene::Scene;
+use super::scene::Surface;
 use super::strategy::{FilterMode, PassContext, PassOutput, Strategy};
 use glam::{DVec3, Vec3};
 use params::{filter_width, sample_count, slope, AafConstants, PixelGeometry};
@@ -264,10 +265,16 @@ impl ShadowStrategy {
                     let sums = &mut sums_row[x * nl..(x + 1) * nl];
                     let want = &target_row[x * nl..(x + 1) * nl];
                     let new = sums.iter().zip(want).map(|(s, &t)| t.saturating_sub(s.n)).max().unwrap_or(0);
+                    // With pixel centres, the pass's samples share one camera ray and r.
+                    let centre = (job.pixel_centers && new > 0).then(|| {
+                        rays += 1;
+                        Centre::new(scene, lights, x, y)
+                    });
                     for _ in 0..new {
                         let mut sampler = PixelSampler::new(job.seed, (y * w + x) as u32, px.taken);
                         px.taken += 1;
-                        let (r, d) = sample_pixel(scene, lights, x, y, &mut sampler, sums, want, px, record_slopes);
+                        let at = Pixel { x, y, centre: centre.as_ref() };
+                        let (r, d) = sample_pixel(scene, lights, at, &mut sampler, sums, want, px, record_slopes);
                         rays += r;
                         dropped += d;
                     }
@@ -457,14 +464,54 @@ fn ratio(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [0, 1, 2].map(|c| if b[c] > 0.0 { a[c] / b[c] } else { 1.0 })
 }
 
+/// The unshadowed diffuse light r of `rect` at `hit` seen from `wo` (exact, Eq. 1's r(x)).
+fn unshadowed(rect: &RectLight, hit: &Surface, wo: Vec3, kd: Vec3) -> DVec3 {
+    // kd/pi where the BRDF is defined: like `Brdf::eval`, nothing where the shading normal
+    // faces away from the viewer (silhouettes of smooth-shaded meshes).
+    let diffuse = if hit.ns.dot(wo) > 0.0 { kd * (1.0 / std::f32::consts::PI) } else { Vec3::ZERO };
+    diffuse.as_dvec3() * rect.radiance.as_dvec3() * rect.unshadowed_irradiance(hit.p, hit.ns, hit.ng)
+}
+
+/// A pixel's centre ray and, where it hits, each light's r there: shared by all the samples
+/// of a pass when shading pixel centres.
+struct Centre {
+    dir: Vec3,
+    hit: Option<Surface>,
+    r: Vec<DVec3>,
+}
+
+impl Centre {
+    fn new(scene: &Scene, lights: &[ShadowLight], x: usize, y: usize) -> Centre {
+        let dir = scene.camera.direction(x as f32 + 0.5, y as f32 + 0.5);
+        let hit = scene.intersect(scene.camera.position, dir, 0.0);
+        let r = lights
+            .iter()
+            .map(|l| match (&scene.lights[l.index], &hit) {
+                (Light::Rect(rect), Some(h)) => {
+                    unshadowed(rect, h, -dir, scene.materials[h.material as usize].brdf(h.uv).kd)
+                }
+                _ => DVec3::ZERO,
+            })
+            .collect();
+        Centre { dir, hit, r }
+    }
+}
+
+/// Which pixel a sample belongs to, and its shared centre ray when shading pixel centres.
+#[derive(Clone, Copy)]
+struct Pixel<'a> {
+    x: usize,
+    y: usize,
+    centre: Option<&'a Centre>,
+}
+
 /// One camera sample of one pixel: the rect lights that still need samples get one each; the
-/// rest of the light (emission, point lights, bounces) goes to `other`. Returns (rays, dropped).
+/// rest of the light (emission, point lights) goes to `other`. Returns (rays, dropped).
 #[allow(clippy::too_many_arguments)]
 fn sample_pixel(
     scene: &Scene,
     lights: &[ShadowLight],
-    x: usize,
-    y: usize,
+    at: Pixel,
     sampler: &mut PixelSampler,
     sums: &mut [LightSums],
     want: &[u32],
@@ -473,9 +520,14 @@ fn sample_pixel(
 ) -> (u64, u64) {
     let cam = &scene.camera;
     let j = sampler.next_2d();
-    let dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
-    let mut rays = 1u64;
-    let Some(hit) = scene.intersect(cam.position, dir, 0.0) else {
+    let (dir, hit, mut rays) = match at.centre {
+        Some(c) => (c.dir, c.hit, 0u64),
+        None => {
+            let dir = cam.direction(at.x as f32 + j[0], at.y as f32 + j[1]);
+            (dir, scene.intersect(cam.position, dir, 0.0), 1u64)
+        }
+    };
+    let Some(hit) = hit else {
         for (s, &t) in sums.iter_mut().zip(want) {
             if s.n < t {
                 s.n += 1;
@@ -499,10 +551,7 @@ fn sample_pixel(
         if emitter || brdf.is_black() {
             continue;
         }
-        // kd/pi where the BRDF is defined: like `Brdf::eval`, nothing where the shading normal
-        // faces away from the viewer (silhouettes of smooth-shaded meshes).
-        let diffuse = if hit.ns.dot(wo) > 0.0 { brdf.kd * (1.0 / std::f32::consts::PI) } else { Vec3::ZERO };
-        let r = diffuse.as_dvec3() * rect.radiance.as_dvec3() * rect.unshadowed_irradiance(hit.p, hit.ns, hit.ng);
+        let r = at.centre.map_or_else(|| unshadowed(rect, &hit, wo, brdf.kd), |c| c.r[l]);
         if r.is_finite() {
             for c in 0..3 {
                 s.r[c] += r[c];
@@ -513,6 +562,7 @@ fn sample_pixel(
         if cos <= 0.0 || hit.ng.dot(ls.wi) <= 0.0 {
             continue;
         }
+        let diffuse = if hit.ns.dot(wo) > 0.0 { brdf.kd * (1.0 / std::f32::consts::PI) } else { Vec3::ZERO };
         let u = diffuse * ls.weight * cos;
         let g = brdf.eval_specular(wo, ls.wi, hit.ns) * ls.weight * cos;
         if !u.is_finite() || !g.is_finite() || (u == Vec3::ZERO && g == Vec3::ZERO) {

@@ -56,6 +56,7 @@ fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64) -> RenderJob {
         initial_spp: 1,
         aaf: AafOptions::default(),
         integrand: Default::default(),
+        pixel_centers: false,
         indirect: Default::default(),
     }
 }
@@ -263,4 +264,25 @@ fn smooth_shaded_silhouettes_converge_to_the_ground_truth() {
     assert!(n > 20, "only {n} arch pixels");
     let (rms, mean_rel) = ((se / n as f64).sqrt(), bias / n as f64);
     assert!(mean_rel.abs() < 0.02, "mean relative error on the arch {mean_rel:+.4} (rms {rms:.4})");
+}
+
+#[test]
+fn pixel_centres_converge_to_the_pixel_centre_image() {
+    // Shading pixel centres (the paper's setting): one camera ray per pixel and pass, r
+    // computed once per pixel, and the stream converges to the pixel-centre ground truth.
+    let scene = shadow_scene(32, 24, 1.0, EmissionProfile::Gaussian, 1, 0.6);
+    let mut rj = job(scene.clone(), Method::Uniform, 12, 99);
+    (rj.halt.max_mean_spp, rj.pixel_centers) = (2048.0, true);
+    let reference = frames(&rj).pop().unwrap();
+    let mut j = job(scene.clone(), Method::Aaf, 5, 1);
+    j.pixel_centers = true;
+    let f = frames(&j);
+    let e: Vec<f64> = f.iter().map(|fr| rmse(&fr.color, &reference.color)).collect();
+    assert!(e[4] < 0.5 * e[1], "{e:?}");
+    // The jittered stream converges elsewhere: its error against this reference stalls.
+    let jittered = frames(&job(scene, Method::Aaf, 5, 1)).pop().unwrap();
+    assert!(rmse(&jittered.color, &reference.color) > 1.5 * e[4], "{e:?}");
+    // Fewer rays: one camera ray per pixel and pass instead of one per sample.
+    let per_sample = |fr: &Frame| fr.stats.rays_traced as f64 / (fr.stats.mean_spp * fr.spp.len() as f64);
+    assert!(per_sample(&f[4]) < per_sample(&jittered) - 0.5, "{} vs {}", per_sample(&f[4]), per_sample(&jittered));
 }

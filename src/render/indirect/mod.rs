@@ -330,11 +330,17 @@ impl IndirectStrategy {
                     if ctx.stop.should_stop() {
                         return (rays, dropped, false);
                     }
+                    // With pixel centres, the pass's samples share one camera ray.
+                    let centre = (job.pixel_centers && (px.diffuse.n < nd || px.glossy.n < ns)).then(|| {
+                        rays += 1;
+                        let dir = scene.camera.direction(x as f32 + 0.5, y as f32 + 0.5);
+                        (dir, scene.intersect(scene.camera.position, dir, 0.0))
+                    });
                     while px.diffuse.n < nd || px.glossy.n < ns {
                         let mut sampler = PixelSampler::new(seed, (y * w + x) as u32, px.taken);
                         px.taken += 1;
                         let want = (px.diffuse.n < nd, px.glossy.n < ns);
-                        let s = Sample { scene, job, owns_direct, record_z, want };
+                        let s = Sample { scene, job, owns_direct, record_z, want, centre };
                         let (r, d) = s.run(x, y, &mut sampler, px);
                         rays += r;
                         dropped += d;
@@ -477,6 +483,8 @@ struct Sample<'a> {
     record_z: bool,
     /// Whether the diffuse and the glossy component take this sample.
     want: (bool, bool),
+    /// The pixel's centre ray and its hit, when shading pixel centres.
+    centre: Option<(Vec3, Option<Surface>)>,
 }
 
 impl Sample<'_> {
@@ -484,10 +492,15 @@ impl Sample<'_> {
     fn run(&self, x: usize, y: usize, sampler: &mut PixelSampler, px: &mut PixelSums) -> (u64, u64) {
         let (scene, cam) = (self.scene, &self.scene.camera);
         let j = sampler.next_2d();
-        let dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
-        let mut rays = 1u64;
+        let (dir, hit, mut rays) = match self.centre {
+            Some((dir, hit)) => (dir, hit, 0u64),
+            None => {
+                let dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
+                (dir, scene.intersect(cam.position, dir, 0.0), 1u64)
+            }
+        };
         let mut dropped = 0u64;
-        let Some(hit) = scene.intersect(cam.position, dir, 0.0) else {
+        let Some(hit) = hit else {
             self.record(px, Vec3::ZERO, None, Vec3::ZERO, None);
             return (rays, 0);
         };

@@ -27,6 +27,7 @@ fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64, bounces: u32) 
         initial_spp: 1,
         aaf: Default::default(),
         integrand: Integrand::Radiance,
+        pixel_centers: false,
         indirect: IndirectOptions::default(),
     }
 }
@@ -272,4 +273,17 @@ fn extreme_exponents_corners_and_grazing_views_stay_finite() {
         }
         assert!(mean_of(&f[2].color, 0) > 0.0);
     }
+}
+
+#[test]
+fn pixel_centres_converge_to_the_pixel_centre_image() {
+    let s = builtin("interior", 24, 18);
+    let mut r = job(s.clone(), Method::Uniform, 20, 99, 1);
+    (r.halt.max_mean_spp, r.pixel_centers) = (1024.0, true);
+    let reference = frames(&r).pop().unwrap();
+    let mut j = job(s, Method::Aaf, 4, 1, 1);
+    j.pixel_centers = true;
+    let f = frames(&j);
+    let e: Vec<f64> = f.iter().map(|fr| rmse(&fr.color, &reference.color)).collect();
+    assert!(e[3] < 0.7 * e[1] && e[3] < e[2], "{e:?}");
 }

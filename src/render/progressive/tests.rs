@@ -45,6 +45,7 @@ fn job(scene: Arc<Scene>, halt: Halt) -> RenderJob {
         initial_spp: 1,
         aaf: Default::default(),
         integrand: Default::default(),
+        pixel_centers: false,
         indirect: Default::default(),
     }
 }
