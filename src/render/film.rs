@@ -1,6 +1,6 @@
 //! Per-pixel running estimates (f64 sums) and the parallel loop that adds samples to them.
 use super::integrator::sample_from;
-use super::progressive::{Integrand, RenderError};
+use super::progressive::{RenderError, RenderJob};
 use super::sampler::PixelSampler;
 use super::scene::Scene;
 use super::strategy::StopCheck;
@@ -49,19 +49,18 @@ impl Film {
         Film { width, height, pixels: vec![PixelEstimate::default(); width as usize * height as usize] }
     }
 
-    /// Traces `count(pixel_index)` more camera paths for every pixel, in parallel over bands of
-    /// rows. Each sample's numbers depend only on (seed, pixel, sample index), so the result is
-    /// the same for any thread count. Non-finite path values are counted and dropped.
+    /// Traces `count(pixel_index)` more camera paths of `job` (its seed, bounces, integrand and
+    /// pixel sampling) for every pixel, in parallel over bands of rows. Each sample's numbers
+    /// depend only on (seed, pixel, sample index), so the result is the same for any thread
+    /// count. Non-finite path values are counted and dropped.
     pub fn add_samples(
         &mut self,
         scene: &Scene,
-        seed: u64,
-        bounces: u32,
-        integrand: Integrand,
-        pixel_centers: bool,
+        job: &RenderJob,
         count: &(dyn Fn(usize) -> u32 + Sync),
         stop: &StopCheck,
     ) -> Result<Tally, RenderError> {
+        let (seed, bounces, integrand, pixel_centers) = (job.seed, job.bounces, job.integrand, job.pixel_centers);
         let w = self.width as usize;
         let cam = &scene.camera;
         let tallies: Vec<Tally> = self

@@ -32,15 +32,7 @@ impl Strategy for Uniform {
     fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError> {
         let job = ctx.job;
         let k = Self::pass_spp(job.initial_spp, ctx.pass, self.spp, job.halt.max_mean_spp);
-        let tally = self.film.add_samples(
-            ctx.scene,
-            job.seed,
-            job.bounces,
-            job.integrand,
-            job.pixel_centers,
-            &|_| k,
-            ctx.stop,
-        )?;
+        let tally = self.film.add_samples(ctx.scene, job, &|_| k, ctx.stop)?;
         self.spp += k as u64;
         self.rays += tally.rays;
         self.dropped += tally.dropped;
