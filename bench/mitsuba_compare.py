@@ -3,7 +3,10 @@
 
     pip install mitsuba numpy
     cargo build --release
+    python3 bench/mitsuba_compare.py --check-bsdf       # the glossy BSDF plugin alone (~1 min)
     python3 bench/mitsuba_compare.py scenes/cornell.json scenes/curved.json scenes/grids.json
+    python3 bench/mitsuba_compare.py scenes/cornell-glossy.json scenes/interior.json \
+        --width 96 --height 72 --reference-spp 1024 --max-spp 256
 
 For each wedge scene file (canonical protobuf JSON) this
 1. converts it to a Mitsuba 3 scene (same triangles, camera, BRDFs, emitters, bounces);
@@ -11,17 +14,33 @@ For each wedge scene file (canonical protobuf JSON) this
    and reports their relative MSE and mean ratio next to each renderer's own noise (the same
    renderer with another seed). Two independent noisy images differ by the sum of their
    variances, so with nothing systematic, wedge vs Mitsuba equals the mean of the two noise
-   columns;
-3. times Mitsuba at increasing spp and reports its RMSE against its own reference, next to
-   the same curve for wedge's methods from `wedge bench`, for BENCHMARKS.md.
+   columns. The same numbers follow per material (the one seen at each pixel's centre), with
+   the mean ratio's two standard errors from the per-pixel spread of each renderer's two seeds;
+3. times Mitsuba at increasing spp and reports its RMSE against the reference, next to the
+   same curve for wedge's methods from `wedge bench`, for BENCHMARKS.md.
+
+Mitsuba's sampler: `independent` for the references (`--mitsuba-sampler`), `ldsampler` for the
+timing curve (`--curve-sampler`). Mitsuba 3.9.1's `ldsampler` correlates its dimensions in
+scalar mode (`--check-sampler`: the x coordinates of 2-D dimensions d and d+2 correlate by about
+-0.2 in every pixel), which biases its images (Cornell box at 8 bounces: 0.3% darker than its
+own `independent` sampler) and makes two of its renders with different seeds share an error, so
+that "Mitsuba vs Mitsuba" understates its error. Until this script used `independent`, that
+showed as a wedge/Mitsuba mismatch on multi-bounce scenes (bench-results/mitsuba-gi.md).
 
 Conventions matched:
 - box pixel filter (wedge jitters uniformly inside each pixel);
 - one-sided rectangular emitters whose backs are black (wedge's emitter surfaces reflect nothing);
 - Mitsuba's max_depth = bounces + 2 (1 is emitters seen directly, 2 adds direct light);
-- the Gaussian emission profile as a radiance texture over the rectangle.
-Only what wedge's built-in scenes use is converted (Lambertian materials with constant or checker
-albedo, rect and point lights); anything else is reported, not approximated.
+- the Gaussian emission profile as a radiance texture over the rectangle;
+- two-sided BSDFs (wedge shades both sides of every surface): Mitsuba's `twosided` around each;
+- shapes tessellated as wedge does (src/scene/shapes.rs): quads and boxes as two triangles per
+  face, spheres as the same latitude bands with smooth normals, not Mitsuba's analytic sphere;
+- wedge's glossy materials (Phong and Blinn-Phong, src/render/material.rs) through the Python
+  BSDF plugin `wedge_glossy` below: wedge's f, density and lobe choice, textures included.
+Only what wedge's scene format has is converted (Lambertian and glossy materials with constant
+or checker textures, rect and point lights, inline meshes and the analytic shapes); anything else
+is reported, not approximated. The Python plugin makes glossy scenes slow (the scalar variant
+calls it once per shading point: about 45 s for cornell-glossy at 96x72 and 1024 spp).
 """
 import argparse
 import json
@@ -126,16 +145,195 @@ def geometry(shape):
         for i in range(bands):
             for j in range(segs):
                 a, b = i * row + j, (i + 1) * row + j
-                idx += [[a, a + 1, b], [a + 1, b + 1, b]]
+                # As wedge: one triangle per quad in the rows touching a pole (the other has no area).
+                if i > 0:
+                    idx.append([a, a + 1, b])
+                if i + 1 < bands:
+                    idx.append([a + 1, b + 1, b])
         nrm = (np.array(p) - c) / r
         return np.array(p), np.array(idx), np.array(uv, float), nrm
     raise SystemExit(f"shape not converted: {list(shape)}")
 
 
-def material(m, uses_uv):
+def texture_at(t, uv):
+    """A wedge texture (ColorTexture or ScalarTexture JSON) at surface coordinates uv: its
+    constant, or a checker's `even` value where floor(u s) + floor(v s) is even, else `odd`."""
+    if "checker" in t:
+        ch = t["checker"]
+        s = ch.get("scale", 0.0)
+        return ch.get("even" if (math.floor(uv[0] * s) + math.floor(uv[1] * s)) % 2 == 0 else "odd", 0.0)
+    return t.get("constant", 0.0)
+
+
+def uses_uv(m):
+    """Whether the material reads surface coordinates (some texture is a checker): wedge
+    stores texture coordinates only then."""
+    if "glossy" in m:
+        return any("checker" in m["glossy"].get(k, {}) for k in ("diffuse", "specular", "exponent"))
+    return "checker" in m.get("lambertian", {}).get("albedo", {})
+
+
+# ---- wedge's glossy BRDF (src/render/material.rs) as a Mitsuba BSDF ---------------------------
+#
+# f = kd/pi + ks * lobe, with
+#   Phong:       lobe = (m+2)/(2 pi) cos^m(alpha), alpha between wi and the mirror direction of
+#                wo about the shading normal, 0 where cos(alpha) <= 0;
+#   Blinn-Phong: lobe = (m+1)/(8 pi) cos^m(theta_h) / ((wo.h) max(cos_i, cos_o)),
+#                h = normalize(wo + wi), 0 where n.h <= 0 or wo.h <= 0;
+# and f = 0 when either direction is below the shading normal. Sampling as wedge's
+# `Brdf::sample`: the glossy lobe with probability lum(ks) / (lum(kd) + lum(ks)) (Rec. 709
+# luminance), else the cosine lobe; the density is that of the mixture. The glossy lobe draws a
+# power-cosine direction about the mirror direction (Phong) or a power-cosine half vector that
+# reflects wo (Blinn-Phong, density (m+1)/(2 pi) cos^m(theta_h) / (4 wo.h)).
+#
+# Mitsuba's names are the other way round from wedge's: Mitsuba's si.wi points to the viewer
+# (wedge's wo) and its `wo` argument is the sampled or light direction (wedge's wi); both local,
+# z = the shading normal. Mitsuba's eval() returns f * cos(theta) of that `wo`, pdf() the
+# solid-angle density of sample(), and sample() the weight f * cos / pdf. The plugin is
+# one-sided (front: si.wi.z > 0); the converter wraps it in `twosided` like the diffuse ones.
+# Plain Python floats throughout: the scalar variant calls it once per shading point.
+
+LUMINANCE = (0.2126, 0.7152, 0.0722)
+INV_PI = 1.0 / math.pi
+
+
+def glossy_lobe(phong, m, o, i):
+    """wedge's `Brdf::lobe`: (lobe value without ks, density of the lobe's sampling) for local
+    unit vectors o (to the viewer) and i (to the light), both above the surface."""
+    if phong:
+        c = -o[0] * i[0] - o[1] * i[1] + o[2] * i[2]  # reflect(o, z) . i
+        if c <= 0.0:
+            return 0.0, 0.0
+        p = (m + 1.0) / (2.0 * math.pi) * c ** m
+        return (m + 2.0) / (m + 1.0) * p, p
+    hx, hy, hz = o[0] + i[0], o[1] + i[1], o[2] + i[2]
+    ln = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if ln == 0.0:
+        return 0.0, 0.0
+    c = hz / ln
+    oh = (o[0] * hx + o[1] * hy + o[2] * hz) / ln
+    if c <= 0.0 or oh <= 0.0:
+        return 0.0, 0.0
+    pdf = (m + 1.0) / (2.0 * math.pi) * c ** m / (4.0 * oh)
+    return pdf / max(i[2], o[2]), pdf
+
+
+def _basis(n):
+    """An orthonormal basis (t, b) around unit n (Duff et al. 2017, as wedge's frame_basis)."""
+    sign = math.copysign(1.0, n[2])
+    a = -1.0 / (sign + n[2])
+    b = n[0] * n[1] * a
+    return (1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]), (b, sign + n[1] * n[1] * a, -n[1])
+
+
+def _power_cosine(u0, u1, m, n):
+    """A direction about unit n with density (m+1)/(2 pi) cos^m(theta)."""
+    ct = u0 ** (1.0 / (m + 1.0))
+    st = math.sqrt(max(0.0, 1.0 - ct * ct))
+    phi = 2.0 * math.pi * u1
+    x, y = st * math.cos(phi), st * math.sin(phi)
+    t, b = _basis(n)
+    return (t[0] * x + b[0] * y + n[0] * ct, t[1] * x + b[1] * y + n[1] * ct, t[2] * x + b[2] * y + n[2] * ct)
+
+
+class WedgeGlossy(mi.BSDF):
+    """wedge's glossy material (property `glossy`: the Glossy message as JSON)."""
+
+    def __init__(self, props):
+        mi.BSDF.__init__(self, props)
+        g = json.loads(props["glossy"])
+        self.phong = g.get("model") == "GLOSSY_MODEL_PHONG"
+        self.textures = (g.get("diffuse", {}), g.get("specular", {}), g.get("exponent", {}))
+        self.varying = any("checker" in t for t in self.textures)
+        self.fixed = None if self.varying else self.at((0.0, 0.0))
+        flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
+        if self.varying:
+            flags = flags | mi.BSDFFlags.SpatiallyVarying
+        self.m_components = [flags]
+        self.m_flags = flags
+
+    def at(self, uv):
+        """(kd, ks, exponent, probability of sampling the glossy lobe) at uv."""
+        kd, ks = rgb(texture_at(self.textures[0], uv) or {}), rgb(texture_at(self.textures[1], uv) or {})
+        m = float(texture_at(self.textures[2], uv))
+        d = sum(w * c for w, c in zip(LUMINANCE, kd))
+        s = sum(w * c for w, c in zip(LUMINANCE, ks))
+        return kd, ks, m, (0.0 if s <= 0.0 else s / (d + s))
+
+    def brdf(self, si):
+        return self.fixed if self.fixed is not None else self.at((si.uv[0], si.uv[1]))
+
+    def f_cos_pdf(self, b, o, i):
+        """(f * cos_i as a list, mixture density) for local o (viewer) and i (light)."""
+        if o[2] <= 0.0 or i[2] <= 0.0:
+            return [0.0, 0.0, 0.0], 0.0
+        kd, ks, m, ps = b
+        lobe, lobe_pdf = glossy_lobe(self.phong, m, o, i) if ps > 0.0 else (0.0, 0.0)
+        f = [(kd[k] * INV_PI + ks[k] * lobe) * i[2] for k in range(3)]
+        return f, (1.0 - ps) * i[2] * INV_PI + ps * lobe_pdf
+
+    def eval(self, ctx, si, wo, active=True):
+        f, _ = self.f_cos_pdf(self.brdf(si), (si.wi[0], si.wi[1], si.wi[2]), (wo[0], wo[1], wo[2]))
+        return mi.Color3f(f)
+
+    def pdf(self, ctx, si, wo, active=True):
+        return self.f_cos_pdf(self.brdf(si), (si.wi[0], si.wi[1], si.wi[2]), (wo[0], wo[1], wo[2]))[1]
+
+    def eval_pdf(self, ctx, si, wo, active=True):
+        f, pdf = self.f_cos_pdf(self.brdf(si), (si.wi[0], si.wi[1], si.wi[2]), (wo[0], wo[1], wo[2]))
+        return mi.Color3f(f), pdf
+
+    def sample(self, ctx, si, sample1, sample2, active=True):
+        bs = mi.BSDFSample3f()
+        o = (si.wi[0], si.wi[1], si.wi[2])
+        b = self.brdf(si)
+        if o[2] <= 0.0:
+            return bs, mi.Color3f(0.0)
+        u0, u1 = sample2[0], sample2[1]
+        if sample1 < b[3]:
+            if self.phong:
+                i = _power_cosine(u0, u1, b[2], (-o[0], -o[1], o[2]))
+            else:
+                h = _power_cosine(u0, u1, b[2], (0.0, 0.0, 1.0))
+                d = 2.0 * (o[0] * h[0] + o[1] * h[1] + o[2] * h[2])
+                i = (d * h[0] - o[0], d * h[1] - o[1], d * h[2] - o[2])
+        else:
+            r, phi = math.sqrt(u0), 2.0 * math.pi * u1
+            i = (r * math.cos(phi), r * math.sin(phi), math.sqrt(max(0.0, 1.0 - u0)))
+        ln = math.sqrt(i[0] * i[0] + i[1] * i[1] + i[2] * i[2])
+        if ln == 0.0:
+            return bs, mi.Color3f(0.0)
+        i = (i[0] / ln, i[1] / ln, i[2] / ln)
+        f, pdf = self.f_cos_pdf(b, o, i)
+        if not (pdf > 0.0 and math.isfinite(pdf)):
+            return bs, mi.Color3f(0.0)
+        bs.wo = mi.Vector3f(i)
+        bs.pdf = pdf
+        bs.eta = 1.0
+        bs.sampled_type = int(mi.BSDFFlags.GlossyReflection if sample1 < b[3] else mi.BSDFFlags.DiffuseReflection)
+        bs.sampled_component = 0
+        return bs, mi.Color3f([c / pdf for c in f])
+
+    def traverse(self, callback):
+        pass
+
+    def parameters_changed(self, keys):
+        pass
+
+    def to_string(self):
+        return f"WedgeGlossy[{'phong' if self.phong else 'blinn-phong'}, {self.textures}]"
+
+
+mi.register_bsdf("wedge_glossy", lambda props: WedgeGlossy(props))
+
+
+def material(m):
+    """The Mitsuba BSDF of a wedge material, one-sided (the caller wraps it in `twosided`)."""
+    if "glossy" in m:
+        return {"type": "wedge_glossy", "glossy": json.dumps(m["glossy"])}
     a = m.get("lambertian", {}).get("albedo")
     if a is None:
-        raise SystemExit(f"material {m.get('name')}: only lambertian is converted")
+        raise SystemExit(f"material {m.get('name')}: only lambertian and glossy are converted")
     if "constant" in a:
         return {"type": "diffuse", "reflectance": {"type": "rgb", "value": rgb(a["constant"])}}
     ch = a["checker"]
@@ -158,6 +356,9 @@ def to_mitsuba(scene, width, height, spp, bounces):
                     "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"}, "pixel_format": "rgb"},
                     "sampler": {"type": "ldsampler", "sample_count": spp}}}
     mats = {m["name"]: m for m in scene.get("materials", [])}
+    for name, m in mats.items():
+        # wedge shades both sides of every surface; Mitsuba's BSDFs are one-sided.
+        d[f"material-{name}"] = {"type": "twosided", "id": f"material-{name}", "bsdf": material(m)}
     names = {s["name"]: s for s in scene.get("shapes", []) if s.get("name")}
     for k, s in enumerate(scene.get("shapes", [])):
         src = names[s["instance"]["shape"]] if "instance" in s else s
@@ -170,10 +371,8 @@ def to_mitsuba(scene, width, height, spp, bounces):
             nw = (np.linalg.inv(m[:3, :3]).T @ nrm.T).T
             nw /= np.linalg.norm(nw, axis=1, keepdims=True)
         # Texture coordinates only where the material reads them, as wedge stores them.
-        uses_uv = "checker" in mats[mat_name].get("lambertian", {}).get("albedo", {})
-        d[f"shape{k}"] = {"type": "ply", "filename": write_ply(pw, idx, uv if uses_uv else None, nw),
-                          # wedge shades both sides of every surface; Mitsuba's BSDFs are one-sided.
-                          "bsdf": {"type": "twosided", "bsdf": material(mats[mat_name], uses_uv)}, "face_normals": nw is None}
+        d[f"shape{k}"] = {"type": "ply", "filename": write_ply(pw, idx, uv if uses_uv(mats[mat_name]) else None, nw),
+                          "bsdf": {"type": "ref", "id": f"material-{mat_name}"}, "face_normals": nw is None}
     for k, l in enumerate(scene.get("lights", [])):
         if "point" in l:
             pt = l["point"]
@@ -236,11 +435,16 @@ def wedge_reference(path, width, height, spp, bounces, out, seed=7):
     return np.array(layers[key], dtype=np.float64)[:, :, :3], secs
 
 
-def mitsuba_render(scene_dict, spp, seed=0):
+def mitsuba_render(scene_dict, spp, seed=0, sampler="independent"):
+    """Mitsuba's image at spp samples per pixel. `independent` (PCG32 per pixel) for the
+    references: Mitsuba 3.9.1's `ldsampler` correlates its dimensions (the x coordinates of 2-D
+    dimensions d and d+2 correlate by about -0.2 in every pixel, `--check-sampler`), which biases
+    its images and gives renders with different seeds a shared error, so that "Mitsuba vs
+    Mitsuba" understates its error. `ldsampler` (stratified like wedge's sampler) only for the
+    timing curve."""
     scene_dict = dict(scene_dict)
     scene_dict["sensor"] = dict(scene_dict["sensor"])
-    # Mitsuba's low-discrepancy sampler: stratified like wedge's, its best for a fair timing.
-    scene_dict["sensor"]["sampler"] = {"type": "ldsampler", "sample_count": spp}
+    scene_dict["sensor"]["sampler"] = {"type": sampler, "sample_count": spp}
     scene = mi.load_dict(scene_dict)
     t = time.perf_counter()
     img = np.array(mi.render(scene, seed=seed), dtype=np.float64)
@@ -251,19 +455,237 @@ def rel_mse(a, b):
     return float(np.mean((a - b) ** 2 / (b ** 2 + 0.01)))
 
 
+def material_ids(scene, d):
+    """The material name (or "light" / "background") seen through each pixel's centre, by
+    Mitsuba's camera and ray casting on the converted scene."""
+    sc = mi.load_dict(d)
+    sensor = sc.sensors()[0]
+    width, height = sensor.film().crop_size()
+    out = np.empty((height, width), dtype=object)
+    for y in range(height):
+        for x in range(width):
+            ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f((x + 0.5) / width, (y + 0.5) / height), mi.Point2f(0.5, 0.5))
+            si = sc.ray_intersect(ray)
+            bsdf_id = si.bsdf().id() if si.is_valid() else ""
+            out[y, x] = bsdf_id[len("material-"):] if bsdf_id.startswith("material-") else "light" if si.is_valid() else "background"
+    return out
+
+
+def by_material(scene, d, wedge, mitsuba):
+    """Table rows comparing the two renderers over the pixels of each material."""
+    ids = material_ids(scene, d)
+    (w, w2), (m, m2) = wedge, mitsuba
+    rows = []
+    for mat in sorted(set(ids.ravel())):
+        sel = ids == mat
+        a, a2, b, b2 = w[sel], w2[sel], m[sel], m2[sel]
+        # The sums of the two-seed means and their variances, (x1 - x2)^2 / 4 per value.
+        sw, sm = (a + a2).sum() / 2, (b + b2).sum() / 2
+        vw, vm = ((a - a2) ** 2).sum() / 4, ((b - b2) ** 2).sum() / 4
+        if sw > 0 and sm > 0:
+            r = sw / sm
+            ratio = f"{r:.4f} ± {2 * r * math.sqrt(vw / sw ** 2 + vm / sm ** 2):.4f}"
+        else:
+            ratio = "black"
+        rows.append([mat, str(int(sel.sum())), f"{rel_mse(a, b):.2e}", f"{rel_mse(a, a2):.2e}", f"{rel_mse(b, b2):.2e}", ratio])
+    return rows
+
+
+def reference_glossy(kd, ks, m, phong, wo, wi):
+    """An independent numpy transcription of wedge's glossy f and sampling density, straight
+    from the formulas (not the plugin's code): wo (1 x 3, to the viewer) and wi (N x 3, to the
+    light) local to n = +z. Returns (f as N x 3, mixture pdf as N)."""
+    wo = np.asarray(wo, float)[None, :]
+    cos_o, cos_i = wo[:, 2], wi[:, 2]
+    above = (cos_i > 0) & (cos_o > 0)
+    if phong:
+        r = np.array([-wo[0, 0], -wo[0, 1], wo[0, 2]])
+        ca = wi @ r
+        ok = above & (ca > 0)
+        cam = np.where(ok, np.maximum(ca, 0) ** m, 0.0)
+        lobe = (m + 2) / (2 * np.pi) * cam
+        lobe_pdf = (m + 1) / (2 * np.pi) * cam
+    else:
+        h = wi + wo
+        h /= np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
+        ch, oh = h[:, 2], h @ wo[0]
+        ok = above & (ch > 0) & (oh > 0)
+        chm = np.where(ok, np.maximum(ch, 0) ** m, 0.0)
+        safe_oh = np.where(ok, oh, 1.0)
+        lobe = (m + 1) / (8 * np.pi) * chm / (safe_oh * np.maximum(cos_i, cos_o))
+        lobe_pdf = (m + 1) / (2 * np.pi) * chm / (4 * safe_oh)
+    lum = np.array(LUMINANCE)
+    ps = float(lum @ ks) / float(lum @ kd + lum @ ks)
+    f = np.where(above[:, None], np.asarray(kd)[None, :] / np.pi + np.asarray(ks)[None, :] * lobe[:, None], 0.0)
+    pdf = np.where(above, (1 - ps) * np.maximum(cos_i, 0) / np.pi + ps * lobe_pdf, 0.0)
+    return f, pdf
+
+
+def hemisphere_grid(n):
+    """Midpoints of an n x 2n grid in (cos theta, phi) over the upper hemisphere, each cell of
+    solid angle 2 pi / (2 n^2)."""
+    c = (np.arange(n) + 0.5) / n
+    phi = (np.arange(2 * n) + 0.5) / (2 * n) * 2 * np.pi
+    cc, pp = np.meshgrid(c, phi, indexing="ij")
+    s = np.sqrt(1 - cc ** 2)
+    return np.stack([s * np.cos(pp), s * np.sin(pp), cc], axis=-1).reshape(-1, 3), 2 * np.pi / (2 * n * n)
+
+
+def check_bsdf(samples=40000, seed=3):
+    """The plugin in isolation, through Mitsuba's API and the `twosided` wrapper, against the
+    numpy transcription above:
+    - eval() = f cos_i and pdf() at 400 random direction pairs, front and back side;
+    - the mean of sample()'s weights (f cos / pdf) = the directional albedo, a quadrature of
+      f cos (a white-furnace test: a surface under uniform unit radiance reflects its albedo);
+    - the fraction of samples above the surface = the quadrature of pdf() (the density's mass);
+    - the sampled directions' histogram (8 cos-theta x 16 phi bins) against the quadrature of
+      the density in each bin (chi-square per degree of freedom, ~1 when they agree);
+    - a rendered point-lit plane (front and back) = f cos_i I / r^2 at the pixel.
+    Returns False on any failure."""
+    rng = np.random.default_rng(seed)
+    ctx = mi.BSDFContext()
+    kd, ks = [0.3, 0.2, 0.1], [0.5, 0.6, 0.4]
+    grid, dw = hemisphere_grid(1500)
+    ok_all = True
+    print("| model | m | theta_o | side | albedo (quadrature, R) | albedo (sampled, R) | 4 sigma | max rel. err eval, pdf | mass (quadrature / sampled) | chi2/dof |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for phong in (False, True):
+        for m in (1.0, 12.0, 20.0):
+            g = {"diffuse": {"constant": dict(zip("rgb", kd))}, "specular": {"constant": dict(zip("rgb", ks))},
+                 "exponent": {"constant": m}, "model": "GLOSSY_MODEL_PHONG" if phong else "GLOSSY_MODEL_BLINN_PHONG"}
+            bsdf = mi.load_dict({"type": "twosided", "bsdf": {"type": "wedge_glossy", "glossy": json.dumps(g)}})
+            for theta, side in ((10, 1), (45, 1), (75, 1), (45, -1)):
+                t = math.radians(theta)
+                wo = np.array([math.sin(t) * 0.8, math.sin(t) * 0.6, math.cos(t)])
+                si = mi.SurfaceInteraction3f()
+                si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
+                si.wi = mi.Vector3f(wo[0], wo[1], side * wo[2])
+                # Pointwise eval and pdf over random directions of both hemispheres.
+                d = rng.normal(size=(400, 3))
+                d /= np.linalg.norm(d, axis=1, keepdims=True)
+                fr, pr = reference_glossy(kd, ks, m, phong, wo, d * np.array([1, 1, side]))
+                fr = fr * np.maximum(side * d[:, 2:3], 0)
+                ev = np.array([list(bsdf.eval(ctx, si, mi.Vector3f(*x))) for x in d])
+                pd = np.array([bsdf.pdf(ctx, si, mi.Vector3f(*x)) for x in d])
+                err = max(float(np.max(np.abs(ev - fr) / (np.abs(fr) + 1e-3))), float(np.max(np.abs(pd - pr) / (pr + 1e-3))))
+                # Quadratures.
+                f, p = reference_glossy(kd, ks, m, phong, wo, grid)
+                albedo = (f * grid[:, 2:3]).sum(axis=0) * dw
+                mass = p.sum() * dw
+                # Sampling.
+                u = rng.random((samples, 3))
+                w = np.zeros((samples, 3))
+                dirs = np.zeros((samples, 3))
+                for k in range(samples):
+                    bs, wt = bsdf.sample(ctx, si, float(u[k, 0]), mi.Point2f(float(u[k, 1]), float(u[k, 2])))
+                    w[k] = list(wt)
+                    dirs[k] = [bs.wo[0], bs.wo[1], side * bs.wo[2]]
+                valid = (w.sum(axis=1) > 0) & (dirs[:, 2] > 0)
+                sampled = w.mean(axis=0)
+                sigma = w.std(axis=0) / math.sqrt(samples)
+                # Histogram in (cos theta, phi) against the density's mass per bin.
+                nb_c, nb_p = 8, 16
+                ci = np.minimum((dirs[valid, 2] * nb_c).astype(int), nb_c - 1)
+                pj = np.minimum(((np.arctan2(dirs[valid, 1], dirs[valid, 0]) % (2 * np.pi)) / (2 * np.pi) * nb_p).astype(int), nb_p - 1)
+                obs = np.bincount(ci * nb_p + pj, minlength=nb_c * nb_p).astype(float)
+                gi = np.minimum((grid[:, 2] * nb_c).astype(int), nb_c - 1)
+                gj = np.minimum(((np.arctan2(grid[:, 1], grid[:, 0]) % (2 * np.pi)) / (2 * np.pi) * nb_p).astype(int), nb_p - 1)
+                exp = np.bincount(gi * nb_p + gj, weights=p * dw, minlength=nb_c * nb_p) * samples
+                keep = exp >= 5
+                chi2 = float((((obs - exp) ** 2 / np.where(keep, exp, 1))[keep]).sum()) / max(1, keep.sum() - 1)
+                good = (np.all(np.abs(sampled - albedo) < 4 * sigma + 2e-3) and err < 1e-4
+                        and abs(mass - valid.mean()) < 4 * math.sqrt(mass * (1 - mass) / samples) + 2e-3 and chi2 < 2.0)
+                ok_all &= bool(good)
+                print(f"| {'Phong' if phong else 'Blinn-Phong'} | {m:g} | {theta} | {'front' if side > 0 else 'back'} "
+                      f"| {albedo[0]:.4f} | {sampled[0]:.4f} | {4 * sigma[0]:.4f} | {err:.1e} | {mass:.4f} / {valid.mean():.4f} "
+                      f"| {chi2:.2f} |{'' if good else ' **FAIL**'}")
+    ok_all &= check_rendered_plane()
+    return ok_all
+
+
+def check_rendered_plane():
+    """A glossy plane z = 0 under a point light, seen through a very narrow camera from another
+    angle, rendered by Mitsuba's path integrator (direct light only): the pixel is
+    f(wo, wi) cos_i I / r^2. From above and, mirrored, from below (the `twosided` wrapper)."""
+    kd, ks, intensity = [0.2, 0.3, 0.1], [0.6, 0.5, 0.7], 5.0
+    ok = True
+    for phong in (False, True):
+        g = {"diffuse": {"constant": dict(zip("rgb", kd))}, "specular": {"constant": dict(zip("rgb", ks))},
+             "exponent": {"constant": 12}, "model": "GLOSSY_MODEL_PHONG" if phong else "GLOSSY_MODEL_BLINN_PHONG"}
+        for side in (1, -1):
+            cam, light = np.array([-1.0, 0.2, 1.5 * side]), np.array([0.7, -0.1, 0.8 * side])
+            scene = mi.load_dict({
+                "type": "scene", "integrator": {"type": "path", "max_depth": 2},
+                "sensor": {"type": "perspective", "fov": 0.01, "to_world": T.look_at(origin=cam.tolist(), target=[0, 0, 0], up=[0, 0, 1]),
+                           "film": {"type": "hdrfilm", "width": 1, "height": 1, "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+                           "sampler": {"type": "independent", "sample_count": 16}},
+                "plane": {"type": "rectangle", "to_world": T.scale([5, 5, 1]),
+                          "bsdf": {"type": "twosided", "bsdf": {"type": "wedge_glossy", "glossy": json.dumps(g)}}},
+                "light": {"type": "point", "position": light.tolist(), "intensity": {"type": "rgb", "value": [intensity] * 3}}})
+            got = np.array(mi.render(scene), dtype=np.float64)[0, 0, :3]
+            wo = cam / np.linalg.norm(cam) * np.array([1, 1, side])
+            wi = light / np.linalg.norm(light) * np.array([1, 1, side])
+            f, _ = reference_glossy(kd, ks, 12.0, phong, wo, wi[None, :])
+            want = f[0] * wi[2] * intensity / float(light @ light)
+            good = bool(np.all(np.abs(got - want) < 1e-3 * want))
+            ok &= good
+            print(f"rendered plane, {'Phong' if phong else 'Blinn-Phong'}, {'front' if side > 0 else 'back'}: "
+                  f"Mitsuba {np.round(got, 5).tolist()}, f cos I / r^2 {np.round(want, 5).tolist()}{'' if good else ' **FAIL**'}")
+    return ok
+
+
+def check_sampler(spp=1024, pixels=40, dims=10):
+    """Correlation between the x coordinates of a Mitsuba sampler's 2-D dimensions within a
+    pixel's spp samples, as the path tracer draws them (every dimension a next_2d here), over
+    `pixels` pixel seeds: the mean (systematic: the same sign in every pixel, with its z score)
+    and the mean magnitude, next to the ~0.8/sqrt(spp) of independent points."""
+    for kind in ("ldsampler", "independent"):
+        s = mi.load_dict({"type": kind, "sample_count": spp})
+        x = np.zeros((pixels, spp, dims))
+        for p in range(pixels):
+            s.seed(5000 + 7919 * p)
+            for j in range(spp):
+                for k in range(dims):
+                    x[p, j, k] = s.next_2d()[0]
+                s.advance()
+        c = np.einsum("pni,pnj->pij", x - 0.5, x - 0.5) / spp * 12
+        mean, se, mag = c.mean(0), c.std(0) / math.sqrt(pixels), np.abs(c).mean(0)
+        print(f"{kind}, {spp} spp, {pixels} pixels (independent points: mean |corr| {math.sqrt(2 / math.pi / spp):.3f})")
+        print("| dimensions | mean corr (z) | mean abs corr |")
+        print("|---|---|---|")
+        for lag in (1, 2, 3, 4):
+            for k in range(dims - lag):
+                z = mean[k, k + lag] / se[k, k + lag]
+                if lag == 2 or abs(z) > 5:
+                    print(f"| {k}, {k + lag} | {mean[k, k + lag]:+.3f} ({z:+.1f}) | {mag[k, k + lag]:.3f} |")
+        print()
+    return 0
+
+
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("scenes", nargs="+")
+    ap.add_argument("scenes", nargs="*")
+    ap.add_argument("--check-bsdf", action="store_true", help="verify the glossy BSDF plugin in isolation, then exit")
+    ap.add_argument("--check-sampler", action="store_true",
+                    help="measure the correlation between the dimensions of Mitsuba's samplers, then exit")
+    ap.add_argument("--mitsuba-sampler", default="independent", help="Mitsuba sampler of the reference renders")
+    ap.add_argument("--curve-sampler", default="ldsampler", help="Mitsuba sampler of the timing curve")
     ap.add_argument("--width", type=int, default=160)
     ap.add_argument("--height", type=int, default=120)
     ap.add_argument("--reference-spp", type=int, default=4096)
     ap.add_argument("--max-spp", type=int, default=256)
     ap.add_argument("--bounces", type=int, help="override the scenes' indirect bounces")
+    ap.add_argument("--save", help="directory to keep the four reference images in (.npy)")
     args = ap.parse_args()
-    print(f"Mitsuba {mi.__version__} ({mi.variant()}), wedge {WEDGE}\n")
+    if args.check_bsdf:
+        return 0 if check_bsdf() else 1
+    if args.check_sampler:
+        return check_sampler()
+    print(f"Mitsuba {mi.__version__} ({mi.variant()}), wedge {WEDGE}; Mitsuba references: {args.mitsuba_sampler}, "
+          f"curve: {args.curve_sampler}\n")
     print("| scene | spp | wedge s | Mitsuba s | relative MSE wedge vs Mitsuba | noise: wedge vs wedge | noise: Mitsuba vs Mitsuba | mean ratio wedge/Mitsuba |")
     print("|---|---|---|---|---|---|---|---|")
-    curves = {}
+    curves, groups = {}, {}
     for path in args.scenes:
         scene = json.load(open(path))
         name = os.path.splitext(os.path.basename(path))[0]
@@ -272,18 +694,33 @@ def main():
         out = os.path.join(_tmp, name)
         w, ws = wedge_reference(path, args.width, args.height, args.reference_spp, bounces, out)
         w2, _ = wedge_reference(path, args.width, args.height, args.reference_spp, bounces, out + "-2", seed=8)
-        m, ms = mitsuba_render(d, args.reference_spp, seed=1)
-        m2, _ = mitsuba_render(d, args.reference_spp, seed=2)
+        # Scalar Mitsuba seeds pixel i of a render with seed s as s * width * height + i (plus
+        # block padding): seeds 1 and 3 never share a pixel stream.
+        m, ms = mitsuba_render(d, args.reference_spp, seed=1, sampler=args.mitsuba_sampler)
+        m2, _ = mitsuba_render(d, args.reference_spp, seed=3, sampler=args.mitsuba_sampler)
         print(f"| {name} | {args.reference_spp} | {ws:.1f} | {ms:.1f} | {rel_mse(w, m):.2e} | {rel_mse(w, w2):.2e} "
-              f"| {rel_mse(m, m2):.2e} | {w.mean() / m.mean():.4f} |")
+              f"| {rel_mse(m, m2):.2e} | {w.mean() / m.mean():.4f} |", flush=True)
+        if args.save:
+            os.makedirs(args.save, exist_ok=True)
+            for key, img in (("wedge-7", w), ("wedge-8", w2), ("mitsuba-1", m), ("mitsuba-3", m2)):
+                np.save(os.path.join(args.save, f"{name}-{key}.npy"), img)
+        groups[name] = by_material(scene, d, (w, w2), (m, m2))
         curve = []
         spp = 4  # ldsampler's smallest count
         while spp <= args.max_spp:
-            img, secs = mitsuba_render(d, spp, seed=100 + spp)
+            img, secs = mitsuba_render(d, spp, seed=100 + 2 * spp, sampler=args.curve_sampler)
             curve.append((spp, secs, float(np.sqrt(np.mean((img - m) ** 2)))))
             spp *= 4  # ldsampler takes square powers of two only
         curves[name] = curve
-    print("\nMitsuba's own convergence (RMSE against its reference above; render time only, scene load excluded):\n")
+    print("\nBy the material seen at each pixel's centre (relative MSE as above; mean ratio of the two seeds' mean "
+          "images, with two standard errors from the per-pixel spread between the seeds):\n")
+    print("| scene | material | pixels | relative MSE wedge vs Mitsuba | noise: wedge vs wedge | noise: Mitsuba vs Mitsuba | mean ratio wedge/Mitsuba |")
+    print("|---|---|---|---|---|---|---|")
+    for name, rows in groups.items():
+        for row in rows:
+            print(f"| {name} | " + " | ".join(row) + " |")
+    print(f"\nMitsuba's convergence with {args.curve_sampler} (RMSE against its {args.mitsuba_sampler} reference above; "
+          "render time only, scene load excluded):\n")
     print("| scene | spp | seconds | RMSE |")
     print("|---|---|---|---|")
     for name, curve in curves.items():
