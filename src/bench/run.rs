@@ -30,6 +30,9 @@ pub struct BenchConfig {
     /// Shade pixel centres (no antialiasing), the AAF papers' setting, in every render
     /// including the reference.
     pub pixel_centers: bool,
+    /// Scale of the indirect filter's standard deviation (None: the paper's beta; 0.25: the
+    /// authors' code).
+    pub indirect_kernel_scale: Option<f64>,
     pub out: PathBuf,
     pub name: String,
     /// The command line, recorded in the report.
@@ -107,6 +110,9 @@ pub fn bench_scene(name: &str, mut scene: proto::Scene, cfg: &BenchConfig) -> an
         for r in 0..cfg.repeats.max(1) {
             let mut j = super::convergence::job(compiled.clone(), method, passes, 0.0, cfg.seed + r as u64, bounces);
             j.pixel_centers = cfg.pixel_centers;
+            if let Some(k) = cfg.indirect_kernel_scale {
+                j.indirect.kernel_scale = k;
+            }
             let pts = sweep(&j, &reference);
             runs.extend(pts.iter().cloned().map(|p| (r, p)));
             per_seed.push(pts);
@@ -132,7 +138,11 @@ pub fn markdown(results: &[SceneResult], cfg: &BenchConfig) -> String {
             cfg.width,
             cfg.height,
             r.bounces,
-            if cfg.pixel_centers { ", pixel centres" } else { "" },
+            match (cfg.pixel_centers, cfg.indirect_kernel_scale) {
+                (true, _) => ", pixel centres".to_string(),
+                (false, Some(k)) => format!(", indirect kernel scale {k}"),
+                _ => String::new(),
+            },
             r.reference_note,
             cfg.repeats
         );
@@ -189,7 +199,7 @@ pub fn write_outputs(results: &[SceneResult], cfg: &BenchConfig) -> anyhow::Resu
         .map(|r| {
             let base = r.curves.iter().find(|c| c.method == Method::Uniform).map(|c| c.points.as_slice()).unwrap_or(&[]);
             json!({
-                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces, "pixel_centers": cfg.pixel_centers,
+                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces, "pixel_centers": cfg.pixel_centers, "indirect_kernel_scale": cfg.indirect_kernel_scale,
                 "reference": r.reference_note,
                 "runs": r.runs.iter().map(|(seed, p)| { let mut v = point(p); v["repeat"] = json!(seed); v }).collect::<Vec<_>>(),
                 "medians": r.curves.iter().flat_map(|c| c.points.iter().map(|p| {
@@ -289,6 +299,7 @@ mod tests {
             seed: 1,
             bounces: None,
             pixel_centers: false,
+            indirect_kernel_scale: None,
             out: out.clone(),
             name: "t".into(),
             command: "test".into(),

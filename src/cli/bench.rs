@@ -52,6 +52,10 @@ pub struct ConvergenceArgs {
     /// Shade pixel centres without antialiasing (the AAF papers' setting), reference included.
     #[arg(long)]
     pub pixel_centers: bool,
+    /// Scale the indirect filter's standard deviation (default 1, the paper's beta = 2/Omega;
+    /// 0.25 is what the authors' code used).
+    #[arg(long)]
+    pub indirect_kernel_scale: Option<f64>,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Output directory.
@@ -209,6 +213,7 @@ fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
         seed: a.seed,
         bounces: a.bounces,
         pixel_centers: a.pixel_centers,
+        indirect_kernel_scale: a.indirect_kernel_scale,
         out: a.out.clone(),
         name: a.name.clone().unwrap_or_else(|| if q { "quick".into() } else { "full".into() }),
         command: std::env::args().collect::<Vec<_>>().join(" "),

@@ -10,7 +10,8 @@
 //!
 //! Pass 0 traces 16 samples per pixel (Sec. 5's initial rays, drawn from the same distribution
 //! as later ones and kept, so reusing them adds no bias); their cosine rays give z_min and
-//! z_max (hits only; z_min clamped to 2% of the scene's largest dimension). Pass k >= 1 uses
+//! z_max (hits only; z_min clamped to 2% of the scene's largest dimension), or their glossy
+//! rays on surfaces without a diffuse part. Pass k >= 1 uses
 //! mu = mu0 * 2^(k-1) and tops each pixel and component up to n(mu) of Eq. 21, clamped to
 //! [16, 100 mu].
 //!
@@ -545,8 +546,13 @@ impl Sample<'_> {
         if self.want.1 && brdf.ks != Vec3::ZERO && front {
             let l = match brdf.sample_specular(wo, hit.ns, u_s) {
                 Some((wi, weight)) => {
-                    let (l, _, r) = self.incident(&hit, wi, sampler);
+                    let (l, z, r) = self.incident(&hit, wi, sampler);
                     rays += r;
+                    // A surface without a diffuse part traces no cosine rays: its reflector
+                    // distances come from the glossy ones.
+                    if self.record_z && brdf.kd == Vec3::ZERO {
+                        record_reflector(px, z);
+                    }
                     l * weight
                 }
                 None => Vec3::ZERO,
