@@ -28,6 +28,15 @@ impl PixelEstimate {
     }
 }
 
+/// sum / n per channel (0 for no samples).
+pub fn mean(sum: [f64; 3], n: u32) -> [f64; 3] {
+    if n == 0 {
+        [0.0; 3]
+    } else {
+        sum.map(|s| s / n as f64)
+    }
+}
+
 /// What one call of `Film::add_samples` did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Tally {

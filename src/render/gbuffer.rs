@@ -84,6 +84,27 @@ impl GBuffer {
         GBuffer { width: w as u32, height: h as u32, pixels }
     }
 
+    /// The projected pixel size d of every pixel (0 for background), divided by
+    /// max(|n . view|, 0.1) when `foreshortening` (methods.md §0.1: the AAF papers say d
+    /// "accounts for foreshortening"; the authors' code leaves it out).
+    pub fn pixel_sizes(&self, camera: Vec3, foreshortening: bool) -> Vec<f64> {
+        self.pixels
+            .iter()
+            .map(|p| {
+                if !p.is_valid() {
+                    return 0.0;
+                }
+                let d = p.pixel_size as f64;
+                if foreshortening {
+                    let view = (camera - p.position).normalize_or_zero();
+                    d / (p.normal.dot(view).abs() as f64).max(0.1)
+                } else {
+                    d
+                }
+            })
+            .collect()
+    }
+
     pub fn at(&self, x: u32, y: u32) -> &GSample {
         &self.pixels[(y * self.width + x) as usize]
     }

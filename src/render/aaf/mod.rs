@@ -21,6 +21,7 @@
 //! indirect strategy adds it (`strategy::make_strategy`).
 pub mod params;
 
+use super::film::mean;
 use super::filter::{self, FilterOptions, FilterPixel};
 use super::frame::{ComponentMaps, Frame, FrameStats};
 use super::gbuffer::GBuffer;
@@ -189,23 +190,7 @@ impl ShadowStrategy {
     fn setup(&mut self, scene: &Scene) {
         let g = GBuffer::build(scene);
         self.rays += (self.width * self.height) as u64;
-        let cam = scene.camera.position;
-        self.d = g
-            .pixels
-            .iter()
-            .map(|p| {
-                if !p.is_valid() {
-                    return 0.0;
-                }
-                let d = p.pixel_size as f64;
-                if self.opts.foreshortening {
-                    let view = (cam - p.position).normalize_or_zero();
-                    d / (p.normal.dot(view).abs() as f64).max(0.1)
-                } else {
-                    d
-                }
-            })
-            .collect();
+        self.d = g.pixel_sizes(scene.camera.position, self.opts.foreshortening);
         let n = self.width * self.height;
         self.sums = vec![LightSums::default(); n * self.lights.len()];
         self.other = vec![OtherSums::default(); n];
@@ -446,14 +431,6 @@ fn shadow_light(index: usize, r: &RectLight, opts: &AafOptions) -> ShadowLight {
             EmissionProfile::Gaussian => 1.0,
             EmissionProfile::Uniform => opts.uniform_light_mu_scale,
         },
-    }
-}
-
-fn mean(sum: [f64; 3], n: u32) -> [f64; 3] {
-    if n == 0 {
-        [0.0; 3]
-    } else {
-        sum.map(|s| s / n as f64)
     }
 }
 

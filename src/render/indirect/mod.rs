@@ -29,6 +29,7 @@
 //!   effective beta / 4; the default is the paper's beta.
 pub mod params;
 
+use super::film::mean;
 use super::filter::{self, FilterOptions, FilterPixel};
 use super::frame::{ComponentMaps, Frame, FrameStats};
 use super::frame_basis::{cosine_hemisphere, to_world};
@@ -232,23 +233,7 @@ impl IndirectStrategy {
     fn setup(&mut self, scene: &Scene) {
         let g = GBuffer::build(scene);
         self.rays += (self.width * self.height) as u64;
-        let cam = scene.camera.position;
-        self.d = g
-            .pixels
-            .iter()
-            .map(|p| {
-                if !p.is_valid() {
-                    return 0.0;
-                }
-                let d = p.pixel_size as f64;
-                if self.opts.foreshortening {
-                    let view = (cam - p.position).normalize_or_zero();
-                    d / (p.normal.dot(view).abs() as f64).max(0.1)
-                } else {
-                    d
-                }
-            })
-            .collect();
+        self.d = g.pixel_sizes(scene.camera.position, self.opts.foreshortening);
         self.sums = vec![PixelSums::default(); self.width * self.height];
         self.gbuffer = Some(g);
     }
@@ -464,14 +449,6 @@ fn glossy_model(scene: &Scene, material: u32) -> GlossyModel {
     match scene.materials.get(material as usize) {
         Some(Material::Glossy { model, .. }) => *model,
         _ => GlossyModel::BlinnPhong,
-    }
-}
-
-fn mean(sum: [f64; 3], n: u32) -> [f64; 3] {
-    if n == 0 {
-        [0.0; 3]
-    } else {
-        sum.map(|s| s / n as f64)
     }
 }
 
