@@ -406,9 +406,11 @@ impl Strategy for ShadowStrategy {
         let t = Instant::now();
         let targets = self.targets(ctx.pass);
         self.method_seconds += t.elapsed().as_secs_f64();
-        let complete = self.trace(ctx, &targets, ctx.pass == 0)?;
+        // The fixed-width baseline uses no slopes: it skips their extra closest-hit queries.
+        let slopes = ctx.pass == 0 && self.mode != FilterMode::UniformFiltered;
+        let complete = self.trace(ctx, &targets, slopes)?;
         let t = Instant::now();
-        if ctx.pass == 0 {
+        if slopes {
             self.fill_slopes();
         }
         let frame = self.frame(ctx.pass);

@@ -286,3 +286,21 @@ fn pixel_centres_converge_to_the_pixel_centre_image() {
     let per_sample = |fr: &Frame| fr.stats.rays_traced as f64 / (fr.stats.mean_spp * fr.spp.len() as f64);
     assert!(per_sample(&f[4]) < per_sample(&jittered) - 0.5, "{} vs {}", per_sample(&f[4]), per_sample(&jittered));
 }
+
+#[test]
+fn the_fixed_filter_baseline_traces_no_slope_queries() {
+    // Pass 0 draws the same 9 samples per pixel in both modes; only AAF needs the occluder
+    // slopes, and their closest-hit queries are extra rays.
+    let scene = shadow_scene(24, 18, 1.0, EmissionProfile::Gaussian, 1, 0.6);
+    let first = |m| frames(&job(scene.clone(), m, 1, 4)).pop().unwrap();
+    let (aaf, fixed) = (first(Method::Aaf), first(Method::UniformFiltered));
+    assert_eq!(aaf.stats.mean_spp, fixed.stats.mean_spp);
+    assert!(
+        fixed.stats.rays_traced < aaf.stats.rays_traced,
+        "{} vs {}",
+        fixed.stats.rays_traced,
+        aaf.stats.rays_traced
+    );
+    // Its unfiltered estimate is the same Monte Carlo mean.
+    assert_eq!(aaf.unfiltered, fixed.unfiltered);
+}
