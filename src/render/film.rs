@@ -46,6 +46,17 @@ pub struct Tally {
     pub complete: bool,
 }
 
+impl Tally {
+    /// The tally of work done in parts (e.g. bands of rows traced in parallel).
+    pub fn total(parts: &[Tally]) -> Tally {
+        parts.iter().fold(Tally { complete: true, ..Tally::default() }, |a, t| Tally {
+            rays: a.rays + t.rays,
+            dropped: a.dropped + t.dropped,
+            complete: a.complete && t.complete,
+        })
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct Film {
     pub width: u32,
@@ -124,11 +135,7 @@ impl Film {
         if stop.is_cancelled() {
             return Err(RenderError::Cancelled);
         }
-        Ok(tallies.iter().fold(Tally { complete: true, ..Tally::default() }, |a, t| Tally {
-            rays: a.rays + t.rays,
-            dropped: a.dropped + t.dropped,
-            complete: a.complete && t.complete,
-        }))
+        Ok(Tally::total(&tallies))
     }
 
     pub fn mean_image(&self) -> Vec<[f32; 3]> {

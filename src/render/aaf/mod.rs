@@ -21,7 +21,7 @@
 //! indirect strategy adds it (`strategy::make_strategy`).
 pub mod params;
 
-use super::film::mean;
+use super::film::{mean, Tally};
 use super::filter::{self, FilterOptions, FilterPixel};
 use super::frame::{ComponentMaps, Frame, FrameStats};
 use super::gbuffer::GBuffer;
@@ -234,7 +234,7 @@ impl ShadowStrategy {
         let (scene, job) = (ctx.scene, ctx.job);
         let (w, nl) = (self.width, self.lights.len());
         let lights = &self.lights;
-        let results: Vec<(u64, u64, bool)> = self
+        let results: Vec<Tally> = self
             .other
             .par_chunks_mut(w)
             .zip(self.sums.par_chunks_mut(w * nl.max(1)))
@@ -244,7 +244,7 @@ impl ShadowStrategy {
                 let (mut rays, mut dropped) = (0u64, 0u64);
                 for x in 0..w {
                     if ctx.stop.should_stop() {
-                        return (rays, dropped, false);
+                        return Tally { rays, dropped, complete: false };
                     }
                     let px = &mut other_row[x];
                     let sums = &mut sums_row[x * nl..(x + 1) * nl];
@@ -264,17 +264,16 @@ impl ShadowStrategy {
                         dropped += d;
                     }
                 }
-                (rays, dropped, true)
+                Tally { rays, dropped, complete: true }
             })
             .collect();
         if ctx.stop.is_cancelled() {
             return Err(RenderError::Cancelled);
         }
-        for (r, d, _) in &results {
-            self.rays += r;
-            self.dropped += d;
-        }
-        Ok(results.iter().all(|r| r.2))
+        let total = Tally::total(&results);
+        self.rays += total.rays;
+        self.dropped += total.dropped;
+        Ok(total.complete)
     }
 
     /// Slopes for every pixel-light: its own from the sparse pass, or the mean of occluded

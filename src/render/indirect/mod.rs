@@ -29,7 +29,7 @@
 //!   effective beta / 4; the default is the paper's beta.
 pub mod params;
 
-use super::film::mean;
+use super::film::{mean, Tally};
 use super::filter::{self, FilterOptions, FilterPixel};
 use super::frame::{ComponentMaps, Frame, FrameStats};
 use super::frame_basis::{cosine_hemisphere, to_world};
@@ -305,7 +305,7 @@ impl IndirectStrategy {
         let (scene, job) = (ctx.scene, ctx.job);
         let w = self.width;
         let (seed, owns_direct) = (self.seed, self.owns_direct);
-        let results: Vec<(u64, u64, bool)> = self
+        let results: Vec<Tally> = self
             .sums
             .par_chunks_mut(w.max(1))
             .zip(targets.par_chunks(w.max(1)))
@@ -314,7 +314,7 @@ impl IndirectStrategy {
                 let (mut rays, mut dropped) = (0u64, 0u64);
                 for (x, (px, &(nd, ns))) in row.iter_mut().zip(want_row).enumerate() {
                     if ctx.stop.should_stop() {
-                        return (rays, dropped, false);
+                        return Tally { rays, dropped, complete: false };
                     }
                     // With pixel centres, the pass's samples share one camera ray.
                     let centre = (job.pixel_centers && (px.diffuse.n < nd || px.glossy.n < ns)).then(|| {
@@ -332,17 +332,16 @@ impl IndirectStrategy {
                         dropped += d;
                     }
                 }
-                (rays, dropped, true)
+                Tally { rays, dropped, complete: true }
             })
             .collect();
         if ctx.stop.is_cancelled() {
             return Err(RenderError::Cancelled);
         }
-        for (r, d, _) in &results {
-            self.rays += r;
-            self.dropped += d;
-        }
-        Ok(results.iter().all(|r| r.2))
+        let total = Tally::total(&results);
+        self.rays += total.rays;
+        self.dropped += total.dropped;
+        Ok(total.complete)
     }
 
     /// Builds the frame of pass `pass`: filters each component and composes.
