@@ -33,6 +33,8 @@ pub struct BenchConfig {
     /// Scale of the indirect filter's standard deviation (None: the paper's beta; 0.25: the
     /// authors' code).
     pub indirect_kernel_scale: Option<f64>,
+    /// mu of the soft-shadow strategy's first passes (None: `AafOptions::default`).
+    pub shadow_mu0: Option<f64>,
     pub out: PathBuf,
     pub name: String,
     /// The command line, recorded in the report.
@@ -113,6 +115,9 @@ pub fn bench_scene(name: &str, mut scene: proto::Scene, cfg: &BenchConfig) -> an
             if let Some(k) = cfg.indirect_kernel_scale {
                 j.indirect.kernel_scale = k;
             }
+            if let Some(mu0) = cfg.shadow_mu0 {
+                j.aaf.mu0 = mu0;
+            }
             let pts = sweep(&j, &reference);
             runs.extend(pts.iter().cloned().map(|p| (r, p)));
             per_seed.push(pts);
@@ -120,6 +125,21 @@ pub fn bench_scene(name: &str, mut scene: proto::Scene, cfg: &BenchConfig) -> an
         curves.push(median_curve(method, &per_seed));
     }
     Ok(SceneResult { name: name.to_string(), bounces, reference_note, runs, curves })
+}
+
+/// The non-default options of a run, for the report's headings.
+fn options_note(cfg: &BenchConfig) -> String {
+    let mut s = String::new();
+    if cfg.pixel_centers {
+        s += ", pixel centres";
+    }
+    if let Some(k) = cfg.indirect_kernel_scale {
+        let _ = write!(s, ", indirect kernel scale {k}");
+    }
+    if let Some(mu0) = cfg.shadow_mu0 {
+        let _ = write!(s, ", shadow mu0 {mu0}");
+    }
+    s
 }
 
 fn f_spp(v: f64) -> String {
@@ -138,11 +158,7 @@ pub fn markdown(results: &[SceneResult], cfg: &BenchConfig) -> String {
             cfg.width,
             cfg.height,
             r.bounces,
-            match (cfg.pixel_centers, cfg.indirect_kernel_scale) {
-                (true, _) => ", pixel centres".to_string(),
-                (false, Some(k)) => format!(", indirect kernel scale {k}"),
-                _ => String::new(),
-            },
+            options_note(cfg),
             r.reference_note,
             cfg.repeats
         );
@@ -199,7 +215,7 @@ pub fn write_outputs(results: &[SceneResult], cfg: &BenchConfig) -> anyhow::Resu
         .map(|r| {
             let base = r.curves.iter().find(|c| c.method == Method::Uniform).map(|c| c.points.as_slice()).unwrap_or(&[]);
             json!({
-                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces, "pixel_centers": cfg.pixel_centers, "indirect_kernel_scale": cfg.indirect_kernel_scale,
+                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces, "pixel_centers": cfg.pixel_centers, "indirect_kernel_scale": cfg.indirect_kernel_scale, "shadow_mu0": cfg.shadow_mu0,
                 "reference": r.reference_note,
                 "runs": r.runs.iter().map(|(seed, p)| { let mut v = point(p); v["repeat"] = json!(seed); v }).collect::<Vec<_>>(),
                 "medians": r.curves.iter().flat_map(|c| c.points.iter().map(|p| {
@@ -300,6 +316,7 @@ mod tests {
             bounces: None,
             pixel_centers: false,
             indirect_kernel_scale: None,
+            shadow_mu0: None,
             out: out.clone(),
             name: "t".into(),
             command: "test".into(),

@@ -56,6 +56,9 @@ pub struct ConvergenceArgs {
     /// 0.25 is what the authors' code used).
     #[arg(long)]
     pub indirect_kernel_scale: Option<f64>,
+    /// mu of the soft-shadow filter's first passes (later passes double it).
+    #[arg(long)]
+    pub shadow_mu0: Option<f64>,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Output directory.
@@ -200,6 +203,9 @@ fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
     );
     let names = if a.scenes.is_empty() { builtin::names().map(String::from).collect() } else { a.scenes.clone() };
     anyhow::ensure!(a.reference.is_none() || names.len() == 1, "--reference is one image: give one scene");
+    for (flag, v) in [("--indirect-kernel-scale", a.indirect_kernel_scale), ("--shadow-mu0", a.shadow_mu0)] {
+        anyhow::ensure!(v.is_none_or(|v| v.is_finite() && v > 0.0), "{flag}: must be a finite number > 0");
+    }
     let q = a.quick;
     let cfg = BenchConfig {
         width: a.width.unwrap_or(if q { 96 } else { 320 }),
@@ -214,6 +220,7 @@ fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
         bounces: a.bounces,
         pixel_centers: a.pixel_centers,
         indirect_kernel_scale: a.indirect_kernel_scale,
+        shadow_mu0: a.shadow_mu0,
         out: a.out.clone(),
         name: a.name.clone().unwrap_or_else(|| if q { "quick".into() } else { "full".into() }),
         command: std::env::args().collect::<Vec<_>>().join(" "),

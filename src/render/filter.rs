@@ -65,7 +65,8 @@ fn weight(c: &FilterPixel, j: &FilterPixel, cos_min: f32, o: &FilterOptions) -> 
     }
     let x = d2 / (2.0 * c.beta * c.beta);
     // Beyond 6 standard deviations the weight (< 1.6e-8) changes nothing. (A polynomial exp
-    // measured slower than libm's here.)
+    // measured slower than libm's here, and an f32 exp saved under 10% of the filter's time
+    // while breaking the separable = 2-D identity at 1e-12.)
     if x > 18.0 {
         0.0
     } else {

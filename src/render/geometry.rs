@@ -182,6 +182,26 @@ impl Geometry {
         !bvh.ray_traverse_miss(ray, |r, id| self.tris[id].intersect(r))
     }
 
+    /// The nearest and the farthest hit on the segment origin + t dir, t in [tmin, tmax], in one
+    /// traversal that never shortens the ray (what the AAF authors' any-hit shader collected):
+    /// cheaper than a closest-hit query from each end.
+    pub fn hit_range(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<(f32, f32)> {
+        let bvh = self.bvh.as_ref()?;
+        let ray = Ray::new(origin.into(), canonical(dir).into(), tmin, tmax);
+        let (mut near, mut far) = (f32::INFINITY, f32::NEG_INFINITY);
+        let mut hit = RayHit::none();
+        bvh.ray_traverse(ray, &mut hit, |r, id| {
+            let t = self.tris[id].intersect(r);
+            if t.is_finite() {
+                near = near.min(t);
+                far = far.max(t);
+            }
+            // Never a hit for the traversal: every node the segment crosses is visited.
+            f32::INFINITY
+        });
+        (near <= far).then_some((near, far))
+    }
+
     /// Geometric (unnormalised-orientation) unit normal of a slot: (v1 - v0) x (v2 - v0).
     #[inline]
     pub fn geometric_normal(&self, slot: u32) -> Vec3 {
@@ -229,6 +249,45 @@ mod tests {
             }
         }
         best
+    }
+
+    #[test]
+    fn hit_range_is_the_nearest_and_farthest_hit_on_the_segment() {
+        let mut rng = Rng(0x9e37_79b9);
+        let mut b = GeometryBuilder::default();
+        let mut tris = Vec::new();
+        for i in 0..500 {
+            let c = rng.v() * 4.0;
+            let p = [c + rng.v() * 0.4, c + rng.v() * 0.4, c + rng.v() * 0.4];
+            tris.push(p);
+            b.push(p, None, None, 0, i);
+        }
+        let g = b.build(BvhQuality::default());
+        let mut seen = 0;
+        for _ in 0..2000 {
+            let (o, d, tmax) = (rng.v() * 6.0, rng.v().normalize(), 1.0 + rng.f() * 10.0);
+            let ts: Vec<f32> = tris
+                .iter()
+                .map(|p| {
+                    let ray = Ray::new(o.into(), d.into(), 0.0, tmax);
+                    RtTriangle::new(p[0].into(), p[1].into(), p[2].into()).intersect(&ray)
+                })
+                .filter(|t| t.is_finite())
+                .collect();
+            let expect = (!ts.is_empty())
+                .then(|| (ts.iter().copied().fold(f32::INFINITY, f32::min), ts.iter().copied().fold(0.0, f32::max)));
+            let got = g.hit_range(o, d, 0.0, tmax);
+            match (expect, got) {
+                (None, None) => {}
+                (Some((n, f)), Some((gn, gf))) => {
+                    seen += 1;
+                    assert!((n - gn).abs() <= 1e-5 * n.max(1.0) && (f - gf).abs() <= 1e-5 * f.max(1.0));
+                    assert!(gn <= gf);
+                }
+                other => panic!("mismatch {other:?}"),
+            }
+        }
+        assert!(seen > 100, "only {seen} segments hit anything");
     }
 
     #[test]
