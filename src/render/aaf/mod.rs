@@ -15,7 +15,10 @@
 //! estimator that converges with n to the same ground truth as `uniform` (the paper's
 //! consistency, Sec. 5.2). Departures from the paper: r is exact at each sample rather than
 //! the irradiance from the light's centre, and the visibility weights include the cosine and
-//! distance terms (the paper's "cosine falloff folded into l(y)", Sec. 3 and 7). The glossy
+//! distance terms (the paper's "cosine falloff folded into l(y)", Sec. 3 and 7). Jittered
+//! samples also need antialiasing, which Eq. 21 knows nothing of: a pixel whose r(x) (or
+//! other light, such as an emitter's edge) spreads over its samples gets the samples that make
+//! that spread's standard error small (`AafOptions::antialias_error`). The glossy
 //! part of area lights' direct light is added unfiltered, as the paper assumes a separate
 //! specular pass; so are point lights and emission. Indirect light is not this strategy's: the
 //! indirect strategy adds it (`strategy::make_strategy`).
@@ -63,6 +66,11 @@ pub struct AafOptions {
     pub filter: FilterOptions,
     /// Filter width in pixels of the `uniform-filtered` baseline.
     pub fixed_filter_px: f64,
+    /// Antialiasing with jittered samples (not the paper's: it shades pixel centres): a pixel
+    /// also gets the samples its own spread of r(x) and of the other light asks for, so that
+    /// their standard error is at most this fraction of the image's mean value at mu0, halving
+    /// as mu doubles. 0 turns it off.
+    pub antialias_error: f64,
 }
 
 impl Default for AafOptions {
@@ -77,6 +85,7 @@ impl Default for AafOptions {
             foreshortening: true,
             filter: FilterOptions::default(),
             fixed_filter_px: 2.0,
+            antialias_error: 0.1,
         }
     }
 }
@@ -99,6 +108,8 @@ struct LightSums {
     b: [f64; 3],
     /// Sum of the exact unshadowed diffuse light r.
     r: [f64; 3],
+    /// Sum of the squared channel mean of r (its spread over the pixel: antialiasing).
+    r2: f64,
     /// Sum of the glossy direct light (sampled, shadowed, unfiltered).
     spec: [f64; 3],
     n: u32,
@@ -114,6 +125,7 @@ impl Default for LightSums {
             a: [0.0; 3],
             b: [0.0; 3],
             r: [0.0; 3],
+            r2: 0.0,
             spec: [0.0; 3],
             n: 0,
             s1: 0.0,
@@ -127,6 +139,8 @@ impl Default for LightSums {
 #[derive(Clone, Copy, Debug, Default)]
 struct OtherSums {
     sum: [f64; 3],
+    /// Sum of the squared channel mean of each sample.
+    sum2: f64,
     /// Camera samples drawn: the divisor of `sum` and the next sample index.
     taken: u32,
 }
@@ -215,6 +229,43 @@ impl ShadowStrategy {
         (self.opts.sparse_samples.max(1) as f64 * growth).ceil() as u32
     }
 
+    /// The largest variance of a pixel's mean that antialiasing accepts after pass `pass`:
+    /// (antialias_error * mu0 / mu * the image's mean value)^2. None at pixel centres (nothing
+    /// to antialias) or when turned off.
+    fn antialias_target(&self, pass: u32) -> Option<f64> {
+        if self.pixel_centers || !(self.opts.antialias_error > 0.0) {
+            return None;
+        }
+        let nl = self.lights.len();
+        let level = self
+            .other
+            .par_iter()
+            .enumerate()
+            .map(|(p, o)| {
+                let rect: f64 =
+                    (0..nl).map(|l| channel_mean(mean(self.sums[p * nl + l].r, self.sums[p * nl + l].n))).sum();
+                rect + channel_mean(mean(o.sum, o.taken))
+            })
+            .sum::<f64>()
+            / self.other.len().max(1) as f64;
+        let error = self.opts.antialias_error * self.opts.mu0 / self.mu(pass) * level;
+        (error > 0.0 && error.is_finite()).then_some(error * error)
+    }
+
+    /// Samples pixel-light `k` needs for the variance of its mean r(x) plus the other light's
+    /// to fall to `target`, from the spread seen so far (variance ~ 1/n), at most `cap`.
+    fn antialias_count(&self, k: usize, target: f64, cap: f64) -> u32 {
+        let (s, o) = (&self.sums[k], &self.other[k / self.lights.len().max(1)]);
+        let var =
+            variance_of_mean(channel_mean(s.r), s.r2, s.n) + variance_of_mean(channel_mean(o.sum), o.sum2, o.taken);
+        let n = var * s.n.max(1) as f64 / target;
+        if n.is_finite() {
+            n.min(cap).ceil() as u32
+        } else {
+            cap as u32
+        }
+    }
+
     /// Samples each pixel-light should have after pass `pass`.
     fn targets(&self, pass: u32) -> Vec<u32> {
         let sparse = self.opts.sparse_samples.max(1);
@@ -222,6 +273,7 @@ impl ShadowStrategy {
             return vec![sparse; self.sums.len()];
         }
         let nl = self.lights.len();
+        let antialias = self.antialias_target(pass);
         (0..self.sums.len())
             .into_par_iter()
             .map(|k| {
@@ -231,10 +283,10 @@ impl ShadowStrategy {
                     FilterMode::Aaf | FilterMode::Adaptive => {
                         let light = &self.lights[l];
                         let mu = self.mu(pass) * light.mu_scale;
-                        let floor = self.floor(pass);
+                        let cap = (self.opts.cap * mu * mu).max(sparse as f64);
+                        let floor = self.floor(pass).max(antialias.map_or(0, |t| self.antialias_count(k, t, cap)));
                         let Some((s1, s2)) = self.slopes[k] else { return floor.max(self.sums[k].n) };
                         let g = PixelGeometry { s1, s2, sigma: light.sigma, d: self.d[pixel] };
-                        let cap = (self.opts.cap * mu * mu).max(sparse as f64);
                         let n = sample_count(&g, &self.opts.constants, mu, sparse as f64).min(cap);
                         (n.ceil() as u32).max(floor).max(self.sums[k].n)
                     }
@@ -477,6 +529,19 @@ fn shadow_light(index: usize, r: &RectLight, opts: &AafOptions) -> ShadowLight {
     }
 }
 
+fn channel_mean(v: [f64; 3]) -> f64 {
+    (v[0] + v[1] + v[2]) / 3.0
+}
+
+/// Unbiased sample variance of a mean of `n` values from their sum and sum of squares.
+fn variance_of_mean(sum: f64, sum2: f64, n: u32) -> f64 {
+    if n < 2 {
+        return 0.0;
+    }
+    let n = n as f64;
+    ((sum2 - sum * sum / n) / (n - 1.0)).max(0.0) / n
+}
+
 /// A / B per channel. Where no light sample carried any light (B = 0) there is no evidence of
 /// occlusion, and the visibility is taken as 1: r alone decides (it is 0 where the pixel
 /// cannot see the light at all).
@@ -576,6 +641,7 @@ fn sample_pixel(
             for c in 0..3 {
                 s.r[c] += r[c];
             }
+            s.r2 += channel_mean(r.to_array()).powi(2);
         }
         let Some(ls) = rect.sample(hit.p, light_u) else { continue };
         let cos = hit.ns.dot(ls.wi);
@@ -623,6 +689,7 @@ fn sample_pixel(
         for c in 0..3 {
             other.sum[c] += r.radiance[c] as f64;
         }
+        other.sum2 += channel_mean(r.radiance.as_dvec3().to_array()).powi(2);
         (rays, 0)
     } else {
         (rays, 1)

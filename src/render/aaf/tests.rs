@@ -315,3 +315,38 @@ fn pixels_outside_every_penumbra_get_the_growing_floor() {
         assert_eq!(got, want, "pixel centres: {centres}");
     }
 }
+
+#[test]
+fn variance_of_mean_matches_the_textbook_formula() {
+    // Values 1, 2, 3, 4: sample variance 5/3, variance of the mean 5/12.
+    assert!((variance_of_mean(10.0, 30.0, 4) - 5.0 / 12.0).abs() < 1e-12);
+    assert_eq!(variance_of_mean(3.0, 9.0, 1), 0.0);
+    // Rounding never makes it negative.
+    assert_eq!(variance_of_mean(0.3, 0.03, 3), 0.0);
+}
+
+#[test]
+fn jittered_pixels_on_edges_get_antialiasing_samples() {
+    // The checker floor's edges spread r(x) over a pixel: with jittered samples those pixels
+    // take more than the floor count, and only them; at pixel centres, or with the option
+    // off, nothing does.
+    let scene = shadow_scene(32, 24, 1.0, EmissionProfile::Gaussian, 1, 0.6);
+    let run = |centres: bool, error: f64| {
+        let mut j = job(scene.clone(), Method::Adaptive, 2, 5);
+        j.pixel_centers = centres;
+        j.aaf.antialias_error = error;
+        frames(&j).pop().unwrap()
+    };
+    let above_floor = |f: &Frame| f.components[0].spp.iter().filter(|&&s| s > 9.0).count();
+    // The checker's two albedos are close (0.8 and 0.5): a tight tolerance makes its edges count.
+    assert_eq!(run(true, 0.03).spp, run(true, 0.0).spp, "pixel centres ask for no antialiasing samples");
+    let (off, on) = (run(false, 0.0), run(false, 0.03));
+    let (n_off, n_on) = (above_floor(&off), above_floor(&on));
+    assert!(n_on > n_off + 10, "{n_on} pixels above the floor with antialiasing, {n_off} without");
+    assert!(n_on < off.components[0].spp.len() / 2, "antialiasing samples went to {n_on} pixels");
+    // And they pay: the error against a dense render of the same method falls.
+    let mut dense = job(scene.clone(), Method::Adaptive, 5, 9);
+    dense.aaf.antialias_error = 0.0;
+    let truth = frames(&dense).pop().unwrap();
+    assert!(rmse(&on.color, &truth.color) < rmse(&off.color, &truth.color));
+}
