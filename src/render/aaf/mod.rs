@@ -18,7 +18,8 @@
 //! distance terms (the paper's "cosine falloff folded into l(y)", Sec. 3 and 7). Jittered
 //! samples also need antialiasing, which Eq. 21 knows nothing of: a pixel whose r(x) (or
 //! other light, such as an emitter's edge) spreads over its samples gets the samples that make
-//! that spread's standard error small (`AafOptions::antialias_error`). The glossy
+//! that spread's standard error small (`AafOptions::antialias_error`), and only those samples
+//! compute r, an average that more samples would barely refine (`Target`). The glossy
 //! part of area lights' direct light is added unfiltered, as the paper assumes a separate
 //! specular pass; so are point lights and emission. Indirect light is not this strategy's: the
 //! indirect strategy adds it (`strategy::make_strategy`).
@@ -110,6 +111,9 @@ struct LightSums {
     r: [f64; 3],
     /// Sum of the squared channel mean of r (its spread over the pixel: antialiasing).
     r2: f64,
+    /// Samples that computed r: the first `r_n` of the `n`. r is exact at each sample, so
+    /// only antialiasing asks for many of them (see `Target`).
+    r_n: u32,
     /// Sum of the glossy direct light (sampled, shadowed, unfiltered).
     spec: [f64; 3],
     n: u32,
@@ -126,6 +130,7 @@ impl Default for LightSums {
             b: [0.0; 3],
             r: [0.0; 3],
             r2: 0.0,
+            r_n: 0,
             spec: [0.0; 3],
             n: 0,
             s1: 0.0,
@@ -143,6 +148,16 @@ struct OtherSums {
     sum2: f64,
     /// Camera samples drawn: the divisor of `sum` and the next sample index.
     taken: u32,
+}
+
+/// What a pixel-light should have after a pass: `n` samples in all (Eq. 21 and the floors), of
+/// which the first `r` also compute the exact unshadowed light r(x). Past the antialiasing
+/// count, more r values only refine an average that is already good enough, and each one
+/// costs more than a shadow ray (an 8x8 quadrature for Gaussian lights).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Target {
+    n: u32,
+    r: u32,
 }
 
 /// Slopes no larger than this keep averages and products finite (s -> inf means an occluder
@@ -243,7 +258,7 @@ impl ShadowStrategy {
             .enumerate()
             .map(|(p, o)| {
                 let rect: f64 =
-                    (0..nl).map(|l| channel_mean(mean(self.sums[p * nl + l].r, self.sums[p * nl + l].n))).sum();
+                    (0..nl).map(|l| channel_mean(mean(self.sums[p * nl + l].r, self.sums[p * nl + l].r_n))).sum();
                 rect + channel_mean(mean(o.sum, o.taken))
             })
             .sum::<f64>()
@@ -257,8 +272,8 @@ impl ShadowStrategy {
     fn antialias_count(&self, k: usize, target: f64, cap: f64) -> u32 {
         let (s, o) = (&self.sums[k], &self.other[k / self.lights.len().max(1)]);
         let var =
-            variance_of_mean(channel_mean(s.r), s.r2, s.n) + variance_of_mean(channel_mean(o.sum), o.sum2, o.taken);
-        let n = var * s.n.max(1) as f64 / target;
+            variance_of_mean(channel_mean(s.r), s.r2, s.r_n) + variance_of_mean(channel_mean(o.sum), o.sum2, o.taken);
+        let n = var * s.r_n.max(1) as f64 / target;
         if n.is_finite() {
             n.min(cap).ceil() as u32
         } else {
@@ -267,10 +282,10 @@ impl ShadowStrategy {
     }
 
     /// Samples each pixel-light should have after pass `pass`.
-    fn targets(&self, pass: u32) -> Vec<u32> {
+    fn targets(&self, pass: u32) -> Vec<Target> {
         let sparse = self.opts.sparse_samples.max(1);
         if pass == 0 {
-            return vec![sparse; self.sums.len()];
+            return vec![Target { n: sparse, r: sparse }; self.sums.len()];
         }
         let nl = self.lights.len();
         let antialias = self.antialias_target(pass);
@@ -278,17 +293,29 @@ impl ShadowStrategy {
             .into_par_iter()
             .map(|k| {
                 let (pixel, l) = (k / nl, k % nl);
+                let s = &self.sums[k];
                 match self.mode {
-                    FilterMode::UniformFiltered => sparse.saturating_mul(1u32 << pass.min(20)),
+                    FilterMode::UniformFiltered => {
+                        let n = sparse.saturating_mul(1u32 << pass.min(20));
+                        Target { n, r: n }
+                    }
                     FilterMode::Aaf | FilterMode::Adaptive => {
                         let light = &self.lights[l];
                         let mu = self.mu(pass) * light.mu_scale;
                         let cap = (self.opts.cap * mu * mu).max(sparse as f64);
                         let floor = self.floor(pass).max(antialias.map_or(0, |t| self.antialias_count(k, t, cap)));
-                        let Some((s1, s2)) = self.slopes[k] else { return floor.max(self.sums[k].n) };
-                        let g = PixelGeometry { s1, s2, sigma: light.sigma, d: self.d[pixel] };
-                        let n = sample_count(&g, &self.opts.constants, mu, sparse as f64).min(cap);
-                        (n.ceil() as u32).max(floor).max(self.sums[k].n)
+                        let n = match self.slopes[k] {
+                            None => floor,
+                            Some((s1, s2)) => {
+                                let g = PixelGeometry { s1, s2, sigma: light.sigma, d: self.d[pixel] };
+                                let n = sample_count(&g, &self.opts.constants, mu, sparse as f64).min(cap);
+                                (n.ceil() as u32).max(floor)
+                            }
+                        }
+                        .max(s.n);
+                        // At pixel centres r is computed once per pass anyway: every sample has it.
+                        let r = if self.pixel_centers { n } else { floor.max(s.r_n).min(n) };
+                        Target { n, r }
                     }
                 }
             })
@@ -296,7 +323,7 @@ impl ShadowStrategy {
     }
 
     /// Traces the samples each pixel-light still needs to reach `targets`.
-    fn trace(&mut self, ctx: &PassContext, targets: &[u32], record_slopes: bool) -> Result<bool, RenderError> {
+    fn trace(&mut self, ctx: &PassContext, targets: &[Target], record_slopes: bool) -> Result<bool, RenderError> {
         let (scene, job) = (ctx.scene, ctx.job);
         let (w, nl) = (self.width, self.lights.len());
         let lights = &self.lights;
@@ -315,7 +342,7 @@ impl ShadowStrategy {
                     let px = &mut other_row[x];
                     let sums = &mut sums_row[x * nl..(x + 1) * nl];
                     let want = &target_row[x * nl..(x + 1) * nl];
-                    let new = sums.iter().zip(want).map(|(s, &t)| t.saturating_sub(s.n)).max().unwrap_or(0);
+                    let new = sums.iter().zip(want).map(|(s, t)| t.n.saturating_sub(s.n)).max().unwrap_or(0);
                     // With pixel centres, the pass's samples share one camera ray and r.
                     let centre = (job.pixel_centers && new > 0).then(|| {
                         rays += 1;
@@ -451,7 +478,7 @@ impl ShadowStrategy {
             color.par_iter_mut().zip(unfiltered.par_iter_mut()).zip(vis.par_iter()).enumerate().for_each(
                 |(p, ((color, unfiltered), vis))| {
                     let s = at(p);
-                    let (r, spec, raw) = (mean(s.r, s.n), mean(s.spec, s.n), ratio(s.a, s.b));
+                    let (r, spec, raw) = (mean(s.r, s.r_n), mean(s.spec, s.n), ratio(s.a, s.b));
                     for c in 0..3 {
                         color[c] += r[c] * vis[c] + spec[c];
                         unfiltered[c] += r[c] * raw[c] + spec[c];
@@ -599,7 +626,7 @@ fn sample_pixel(
     at: Pixel,
     sampler: &mut PixelSampler,
     sums: &mut [LightSums],
-    want: &[u32],
+    want: &[Target],
     other: &mut OtherSums,
     record_slopes: bool,
 ) -> (u64, u64) {
@@ -613,9 +640,10 @@ fn sample_pixel(
         }
     };
     let Some(hit) = hit else {
-        for (s, &t) in sums.iter_mut().zip(want) {
-            if s.n < t {
+        for (s, t) in sums.iter_mut().zip(want) {
+            if s.n < t.n {
                 s.n += 1;
+                s.r_n += u32::from(s.r_n < t.r);
             }
         }
         return (rays, 0);
@@ -628,20 +656,25 @@ fn sample_pixel(
         // aligned (a missed camera ray draws none, but then nothing else is drawn either).
         let light_u = sampler.next_2d();
         let s = &mut sums[l];
-        if s.n >= want[l] {
+        if s.n >= want[l].n {
             continue;
         }
         s.n += 1;
+        // The first samples (a stratified prefix) carry r, black or not.
+        let with_r = s.r_n < want[l].r;
+        s.r_n += u32::from(with_r);
         let Light::Rect(rect) = &scene.lights[light.index] else { continue };
         if emitter || brdf.is_black() {
             continue;
         }
-        let r = at.centre.map_or_else(|| unshadowed(rect, &hit, wo, brdf.kd), |c| c.r[l]);
-        if r.is_finite() {
-            for c in 0..3 {
-                s.r[c] += r[c];
+        if with_r {
+            let r = at.centre.map_or_else(|| unshadowed(rect, &hit, wo, brdf.kd), |c| c.r[l]);
+            if r.is_finite() {
+                for c in 0..3 {
+                    s.r[c] += r[c];
+                }
+                s.r2 += channel_mean(r.to_array()).powi(2);
             }
-            s.r2 += channel_mean(r.to_array()).powi(2);
         }
         let Some(ls) = rect.sample(hit.p, light_u) else { continue };
         let cos = hit.ns.dot(ls.wi);

@@ -3,6 +3,7 @@ use super::*;
 use crate::render::frame::Frame;
 use crate::render::progressive::{render, CancelToken, Halt, Method};
 use crate::render::scene::{CameraDesc, SceneBuilder};
+use crate::render::strategy::StopCheck;
 use crate::render::texture::Texture;
 use glam::Vec2;
 use std::sync::Arc;
@@ -349,4 +350,32 @@ fn jittered_pixels_on_edges_get_antialiasing_samples() {
     dense.aaf.antialias_error = 0.0;
     let truth = frames(&dense).pop().unwrap();
     assert!(rmse(&on.color, &truth.color) < rmse(&off.color, &truth.color));
+}
+
+#[test]
+fn jittered_samples_compute_r_only_up_to_the_antialiasing_count() {
+    // Penumbra pixels take Eq. 21's many samples, but r(x) is exact at each one: only the
+    // first (floor or antialiasing) count computes it; at pixel centres every sample has it.
+    let scene = shadow_scene(24, 18, 1.0, EmissionProfile::Gaussian, 1, 0.6);
+    for centres in [false, true] {
+        let mut j = job(scene.clone(), Method::Aaf, 3, 2);
+        j.pixel_centers = centres;
+        let mut st = ShadowStrategy::new(&j, FilterMode::Aaf);
+        let stop = StopCheck { cancel: CancelToken::new(), deadline: None };
+        for pass in 0..3 {
+            st.run_pass(&PassContext { scene: &j.scene, job: &j, pass, stop: &stop }).expect("pass");
+        }
+        let floor = st.floor(2);
+        let beyond = st.sums.iter().filter(|s| s.n > floor).count();
+        assert!(beyond > 10, "only {beyond} pixels above the floor");
+        for s in &st.sums {
+            assert!(s.r_n <= s.n);
+            if centres {
+                assert_eq!(s.r_n, s.n);
+            } else if s.r_n < s.n {
+                assert!(s.r_n >= floor, "{} r samples under the floor {floor}", s.r_n);
+            }
+        }
+        assert_eq!(centres, st.sums.iter().all(|s| s.r_n == s.n), "pixel centres: {centres}");
+    }
 }
