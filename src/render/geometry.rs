@@ -251,17 +251,23 @@ mod tests {
         best
     }
 
-    #[test]
-    fn hit_range_is_the_nearest_and_farthest_hit_on_the_segment() {
-        let mut rng = Rng(0x9e37_79b9);
+    /// `count` random triangles of size about `size` in a 4-unit box; object id = index.
+    fn triangle_soup(rng: &mut Rng, count: u32, size: f32) -> (Vec<[Vec3; 3]>, GeometryBuilder) {
         let mut b = GeometryBuilder::default();
         let mut tris = Vec::new();
-        for i in 0..500 {
+        for i in 0..count {
             let c = rng.v() * 4.0;
-            let p = [c + rng.v() * 0.4, c + rng.v() * 0.4, c + rng.v() * 0.4];
+            let p = [c + rng.v() * size, c + rng.v() * size, c + rng.v() * size];
             tris.push(p);
             b.push(p, None, None, 0, i);
         }
+        (tris, b)
+    }
+
+    #[test]
+    fn hit_range_is_the_nearest_and_farthest_hit_on_the_segment() {
+        let mut rng = Rng(0x9e37_79b9);
+        let (tris, b) = triangle_soup(&mut rng, 500, 0.4);
         let g = b.build(BvhQuality::default());
         let mut seen = 0;
         for _ in 0..2000 {
@@ -293,14 +299,7 @@ mod tests {
     #[test]
     fn bvh_hits_equal_brute_force_on_random_triangles() {
         let mut rng = Rng(0x1234_5678);
-        let mut b = GeometryBuilder::default();
-        let mut tris = Vec::new();
-        for i in 0..2000 {
-            let c = rng.v() * 4.0;
-            let p = [c + rng.v() * 0.3, c + rng.v() * 0.3, c + rng.v() * 0.3];
-            tris.push(p);
-            b.push(p, None, None, 0, i);
-        }
+        let (tris, b) = triangle_soup(&mut rng, 2000, 0.3);
         assert_eq!(b.degenerate, 0);
         let g = b.build(BvhQuality::default());
         let (mut hits, mut occl) = (0, 0);
