@@ -26,7 +26,7 @@
 pub mod params;
 
 use super::film::{mean, Tally};
-use super::filter::{self, FilterOptions, FilterPixel};
+use super::filter::{FilterKernel, FilterOptions, FilterSurface};
 use super::frame::{ComponentMaps, Frame, FrameStats};
 use super::gbuffer::GBuffer;
 use super::integrator::{emitted, radiance_from, DirectLights, PathResult};
@@ -171,6 +171,9 @@ pub struct ShadowStrategy {
     height: usize,
     lights: Vec<ShadowLight>,
     gbuffer: Option<GBuffer>,
+    /// Per light, the filter's view of the G-buffer (positions in the light's plane, Eq. 12),
+    /// built once per render; empty for `adaptive`, which does not filter.
+    surfaces: Vec<FilterSurface>,
     /// Pixel-major: sums[pixel * lights + l].
     sums: Vec<LightSums>,
     other: Vec<OtherSums>,
@@ -205,6 +208,7 @@ impl ShadowStrategy {
             height: h,
             lights,
             gbuffer: None,
+            surfaces: Vec::new(),
             sums: Vec::new(),
             other: Vec::new(),
             slopes: Vec::new(),
@@ -229,6 +233,12 @@ impl ShadowStrategy {
         self.sums = vec![LightSums::default(); n * self.lights.len()];
         self.other = vec![OtherSums::default(); n];
         self.slopes = vec![None; n * self.lights.len()];
+        // The surfaces are the filter's own work: they count in the method's seconds.
+        let t = Instant::now();
+        if self.mode != FilterMode::Adaptive {
+            self.surfaces = self.lights.iter().map(|light| light_plane_surface(&g, light, self.width, &self.opts.filter)).collect();
+        }
+        self.method_seconds += t.elapsed().as_secs_f64();
         self.gbuffer = Some(g);
     }
 
@@ -439,15 +449,14 @@ impl ShadowStrategy {
         for (l, light) in self.lights.iter().enumerate() {
             let at = |p: usize| &self.sums[p * nl + l];
             let mut vis: Vec<[f64; 3]> = (0..n).into_par_iter().map(|p| ratio(at(p).a, at(p).b)).collect();
-            if self.mode != FilterMode::Adaptive {
+            if let Some(surface) = self.surfaces.get(l) {
                 let t = Instant::now();
                 let mu = self.mu(pass) * light.mu_scale;
-                let pixels: Vec<FilterPixel> = (0..n)
+                let kernels: Vec<FilterKernel> = (0..n)
                     .into_par_iter()
                     .zip(width_px.par_iter_mut())
                     .map(|(p, width_px)| {
-                        let gp = g.map(|g| g.pixels[p]);
-                        let valid = gp.is_some_and(|s| s.is_valid()) && at(p).b.iter().any(|&b| b > 0.0);
+                        let valid = g.is_some_and(|g| g.pixels[p].is_valid()) && at(p).b.iter().any(|&b| b > 0.0);
                         let beta = match (self.mode, self.slopes.get(p * nl + l).copied().flatten()) {
                             _ if !valid => 0.0,
                             (FilterMode::UniformFiltered, _) => self.opts.fixed_filter_px * self.d[p],
@@ -461,18 +470,10 @@ impl ShadowStrategy {
                         if beta > 0.0 && self.d[p] > 0.0 {
                             *width_px = width_px.max((beta / self.d[p]) as f32);
                         }
-                        let pos = gp.map_or(Vec3::ZERO, |s| s.position) - light.corner;
-                        FilterPixel {
-                            position: DVec3::new(pos.dot(light.axis_u) as f64, pos.dot(light.axis_v) as f64, 0.0),
-                            normal: gp.map_or(Vec3::ZERO, |s| s.normal),
-                            object: gp.map_or(u32::MAX, |s| s.object),
-                            valid,
-                            beta,
-                            d: self.d[p],
-                        }
+                        FilterKernel { valid, beta, d: self.d[p] }
                     })
                     .collect();
-                filter::separable(&pixels, &mut vis, w, &self.opts.filter);
+                surface.filter(&kernels, &mut vis);
                 method_seconds += t.elapsed().as_secs_f64();
             }
             color.par_iter_mut().zip(unfiltered.par_iter_mut()).zip(vis.par_iter()).enumerate().for_each(
@@ -539,6 +540,16 @@ impl Strategy for ShadowStrategy {
         frame.stats.method_seconds = self.method_seconds;
         Ok(PassOutput { frame, complete })
     }
+}
+
+/// The filter's surface for `light`: each hit point in the light plane's coordinates, so that
+/// offsets along the light normal do not count (Eq. 12).
+fn light_plane_surface(g: &GBuffer, light: &ShadowLight, width: usize, o: &FilterOptions) -> FilterSurface {
+    FilterSurface::new(g.pixels.len(), width, o, |p| {
+        let s = &g.pixels[p];
+        let pos = s.position - light.corner;
+        (DVec3::new(pos.dot(light.axis_u) as f64, pos.dot(light.axis_v) as f64, 0.0), s.normal, s.object)
+    })
 }
 
 fn shadow_light(index: usize, r: &RectLight, opts: &AafOptions) -> ShadowLight {
