@@ -156,27 +156,35 @@ def interior():
 
 
 def grids():
-    # Stacked grids of thin bars over a ground plane under a square Gaussian light: occluders at
-    # several heights give shadows from sharp to very soft (Mehta et al. 2012, Fig. 6).
+    # Grids of thin bars at three heights over a ground plane under a square Gaussian light:
+    # shadows from sharp (low grid) to soft (high grid), as in Mehta et al. 2012, Fig. 6. The
+    # grids stand side by side so that no grid shadows another: the paper's Sec. 7 calls the
+    # variant "where they also shadow each other" (its Fig. 11(b)) the more challenging scene.
+    # Below each grid a pixel sees one layer of occluders, so s1/s2 stays near 1.
     shapes = [{"name": "ground", "material": "ground",
                "quad": {"corner": v(-12, 0, -12), "edgeU": v(0, 0, 24), "edgeV": v(24, 0, 0)}},
               {"name": "bar", "material": "bars", "box": {"min": v(-0.5, -0.5, -0.5), "max": v(0.5, 0.5, 0.5)}}]
-    levels = [(0.35, 0.06, 0.45, 9), (1.1, 0.08, 0.7, 7), (2.2, 0.1, 1.0, 5)]
-    for height, thick, spacing, count in levels:
-        span = spacing * (count - 1) + 2 * spacing
+    # (height, bar thickness, spacing, bars per direction, centre x). The high grid sits under
+    # the light's centre. For light samples anywhere on the light, its shadow (penumbra
+    # included) ends about 0.1 short of the others' on the ground and 0.3 short of the other
+    # grids themselves.
+    levels = [(0.3, 0.05, 0.3, 5, -2.75), (1.5, 0.08, 0.5, 3, 0.0), (0.8, 0.06, 0.4, 4, 2.75)]
+    for height, thick, spacing, count, cx in levels:
+        span = spacing * (count + 1)
         for i in range(count):
             off = (i - (count - 1) / 2) * spacing
-            # Bars along z at this level, then bars along x slightly above them.
+            # Bars along z at this height, then bars along x resting on them.
             shapes.append({"material": "bars", "instance": {"shape": "bar"},
-                           "transform": {"translate": v(off, height, 0), "scale": v(thick, thick, span)}})
+                           "transform": {"translate": v(cx + off, height, 0), "scale": v(thick, thick, span)}})
             shapes.append({"material": "bars", "instance": {"shape": "bar"},
-                           "transform": {"translate": v(0, height + thick, off), "scale": v(span, thick, thick)}})
+                           "transform": {"translate": v(cx, height + thick, off), "scale": v(span, thick, thick)}})
     # The first bar is the prototype the others instance: it takes the first placement.
     first = shapes.pop(2)
     shapes[1]["transform"] = first["transform"]
     return {
-        "description": "stacked grids of thin bars over a plane, square Gaussian area light (AAF 2012 Fig. 6)",
-        "camera": {"position": v(0, 6.0, 6.5), "lookAt": v(0, 0.2, 0.4), "up": v(0, 1, 0),
+        "description": "grids of thin bars at three heights over a plane, side by side, square Gaussian area light "
+                       "(AAF 2012 Fig. 6)",
+        "camera": {"position": v(0.3, 6.0, 5.5), "lookAt": v(0.3, 0.1, 0.3), "up": v(0, 1, 0),
                    "verticalFovDeg": 50, "width": 320, "height": 240},
         "materials": [lambert("ground", (0.8, 0.8, 0.8)), lambert("bars", (0.6, 0.45, 0.3))],
         "shapes": shapes,
