@@ -236,7 +236,8 @@ impl ShadowStrategy {
         // The surfaces are the filter's own work: they count in the method's seconds.
         let t = Instant::now();
         if self.mode != FilterMode::Adaptive {
-            self.surfaces = self.lights.iter().map(|light| light_plane_surface(&g, light, self.width, &self.opts.filter)).collect();
+            self.surfaces =
+                self.lights.iter().map(|light| light_plane_surface(&g, light, self.width, &self.opts.filter)).collect();
         }
         self.method_seconds += t.elapsed().as_secs_f64();
         self.gbuffer = Some(g);

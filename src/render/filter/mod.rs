@@ -139,7 +139,8 @@ fn weight(c: &FilterPixel, j: &FilterPixel, cos_min: f32, o: &FilterOptions) -> 
 /// Filters `values` (row-major, `width` wide) in place with the separable filter: a
 /// `FilterSurface` used once.
 pub fn separable(pixels: &[FilterPixel], values: &mut [[f64; 3]], width: usize, o: &FilterOptions) {
-    let surface = FilterSurface::new(pixels.len(), width, o, |i| (pixels[i].position, pixels[i].normal, pixels[i].object));
+    let surface =
+        FilterSurface::new(pixels.len(), width, o, |i| (pixels[i].position, pixels[i].normal, pixels[i].object));
     let kernels: Vec<FilterKernel> = pixels.iter().map(FilterPixel::kernel).collect();
     surface.filter(&kernels, values);
 }

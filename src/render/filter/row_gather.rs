@@ -130,7 +130,15 @@ impl Surface {
 
     /// The filtered value of centre `i` (absolute index) over taps lo ..= hi (absolute).
     #[inline(always)]
-    fn gather_one<const TANGENT: bool>(&self, k: &Kernels, c: &Centre, v: &Values, i: usize, lo: usize, hi: usize) -> [f64; 3] {
+    fn gather_one<const TANGENT: bool>(
+        &self,
+        k: &Kernels,
+        c: &Centre,
+        v: &Values,
+        i: usize,
+        lo: usize,
+        hi: usize,
+    ) -> [f64; 3] {
         let mut acc = [[0.0f64; LANES]; 4];
         let mut j = lo;
         while j <= hi {
