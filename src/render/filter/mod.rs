@@ -12,7 +12,8 @@ mod row_gather;
 use glam::{DVec3, Vec3};
 use row_gather::{transpose, Kernels, Surface};
 
-/// One pixel as the filter sees it.
+/// One pixel as the filter sees it, surface and kernel together: the one-shot form of
+/// `separable` (strategies keep a `FilterSurface` and pass `FilterKernel`s).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FilterPixel {
     /// Position in the coordinates distances are measured in (see the module comment).

@@ -4,8 +4,8 @@
 //! lane masks), and the weighted sums accumulated in f64.
 //!
 //! Why: the filter is the method's own cost (its "method share"), and a wide kernel reads 100
-//! taps per pixel per pass. Scalar f64 taps with libm's exp cost about 27 cycles each; most of
-//! that is exp's call and a long dependent chain per tap. Weights in f32 differ from the f64
+//! taps per pixel per pass. A scalar f64 tap spent most of its time in libm's exp (a call) and
+//! in a long dependent chain. Weights in f32 differ from the f64
 //! reference (`super::weight`) by about 1e-7 relative, far below any image's noise; the values
 //! and the sums stay f64, so a constant image stays constant to f64 rounding.
 use super::{radius, FilterKernel, FilterOptions};
