@@ -113,6 +113,13 @@ pub fn measure(scene: &Scene, set: &RaySet, threads: usize, repeats: usize) -> a
 /// A procedural terrain of about `triangles` triangles (a height field of summed sines) under a
 /// square light: a stand-in for large meshes that needs no asset files.
 pub fn terrain_scene(triangles: usize, width: u32, height: u32, quality: BvhQuality) -> Scene {
+    let mut b = terrain_builder(triangles, width, height);
+    b.bvh_quality = quality;
+    b.build()
+}
+
+/// The terrain before its BVH is built.
+pub fn terrain_builder(triangles: usize, width: u32, height: u32) -> SceneBuilder {
     let mut b = SceneBuilder::new(CameraDesc {
         position: Vec3::new(0.0, 6.0, 9.0),
         look_at: Vec3::new(0.0, 0.0, 0.0),
@@ -139,7 +146,6 @@ pub fn terrain_scene(triangles: usize, width: u32, height: u32, quality: BvhQual
             b.geometry.push([a, d, c], None, None, m, o);
         }
     }
-    b.bvh_quality = quality;
     b.add_rect_light(crate::render::light::RectLight::new(
         Vec3::new(-1.0, 5.0, -1.0),
         Vec3::new(2.0, 0.0, 0.0),
@@ -147,7 +153,7 @@ pub fn terrain_scene(triangles: usize, width: u32, height: u32, quality: BvhQual
         Vec3::splat(10.0),
         crate::render::light::EmissionProfile::Uniform,
     ));
-    b.build()
+    b
 }
 
 /// Writes the scene's triangles and the ray sets as little-endian f32 files plus meta.json,

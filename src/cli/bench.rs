@@ -1,8 +1,9 @@
 //! `wedge bench`: runs the benchmarks in src/bench and prints Markdown for BENCHMARKS.md.
 use crate::bench::{latency, machine_description, median, rays};
 use crate::proto;
-use crate::render::geometry::BvhQuality;
-use crate::scene::{builtin, compile, SceneLimits};
+use crate::render::geometry::{BvhLayout, BvhQuality};
+use crate::render::wide_bvh::Width;
+use crate::scene::{builtin, compile_builder, SceneLimits};
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
 
@@ -112,6 +113,13 @@ pub enum BenchKind {
     },
 }
 
+/// What `bench rays` compares: wedge's default BVH (8-wide with AVX2), its 4-wide BVH, obvhs's.
+const LAYOUTS: [(&str, BvhLayout); 3] = [
+    ("wedge default", BvhLayout::Wide(Width::Eight)),
+    ("wedge 4-wide", BvhLayout::Wide(Width::Four)),
+    ("obvhs CWBVH", BvhLayout::Cwbvh),
+];
+
 pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     let Some(what) = a.what else { return convergence(a.convergence) };
     println!("Machine: {}\n", machine_description());
@@ -123,40 +131,64 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
                 "slow" => BvhQuality::Slow,
                 other => anyhow::bail!("--bvh {other}: expected fast, medium or slow"),
             };
-            println!("| scene | triangles | rays | kind | 1 thread Mrays/s | 2 threads Mrays/s | hits |");
-            println!("|---|---|---|---|---|---|---|");
+            println!("| scene | triangles | rays | kind | BVH | 1 thread Mrays/s | 2 threads Mrays/s | hits |");
+            println!("|---|---|---|---|---|---|---|---|");
             let mut scenes = Vec::new();
             for name in &scene {
                 let mut s = builtin::get(name).ok_or_else(|| anyhow::anyhow!("no built-in scene {name:?}"))?;
                 if let Some(c) = s.camera.as_mut() {
                     (c.width, c.height) = (width, height);
                 }
-                scenes.push((name.clone(), compile(&s, &SceneLimits::default(), None)?));
+                scenes.push((name.clone(), compile_builder(&s, &SceneLimits::default(), None)?));
             }
-            scenes.push(("terrain".to_string(), rays::terrain_scene(terrain_triangles, width, height, quality)));
-            for (name, s) in &scenes {
+            scenes.push(("terrain".to_string(), rays::terrain_builder(terrain_triangles, width, height)));
+            let mut ratios = Vec::new();
+            for (name, builder) in scenes {
+                // The same tree traced by wedge's wide BVH (8-wide where the CPU has AVX2, and
+                // 4-wide) and by obvhs's CWBVH, on the same rays.
+                let layouts = LAYOUTS.map(|(_, layout)| {
+                    let mut b = builder.clone();
+                    (b.bvh_quality, b.bvh_layout) = (quality, layout);
+                    b.build()
+                });
+                let s = &layouts[0];
                 let sets = rays::make_rays(s, spp);
-                let mut results = serde_json::Map::new();
+                let mut results = LAYOUTS.map(|_| serde_json::Map::new());
                 for set in &sets {
-                    let (r1, hits) = rays::measure(s, set, 1, repeats)?;
-                    let (r2, _) = rays::measure(s, set, 2, repeats)?;
-                    println!(
-                        "| {name} | {} | {} | {} | {:.2} | {:.2} | {hits} |",
-                        s.triangle_count(),
-                        set.origins.len(),
+                    let mut one_thread = [0.0; 3];
+                    for (k, ((layout, _), scene)) in LAYOUTS.iter().zip(&layouts).enumerate() {
+                        let (r1, hits) = rays::measure(scene, set, 1, repeats)?;
+                        let (r2, _) = rays::measure(scene, set, 2, repeats)?;
+                        one_thread[k] = r1;
+                        println!(
+                            "| {name} | {} | {} | {} | {layout} | {:.2} | {:.2} | {hits} |",
+                            scene.triangle_count(),
+                            set.origins.len(),
+                            set.kind.name(),
+                            r1 / 1e6,
+                            r2 / 1e6
+                        );
+                        results[k].insert(
+                            set.kind.name().to_string(),
+                            serde_json::json!({"rays": set.origins.len(), "hits": hits, "rays_per_second_1": r1, "rays_per_second_2": r2}),
+                        );
+                    }
+                    ratios.push(format!(
+                        "| {name} | {} | {:.2} | {:.2} |",
                         set.kind.name(),
-                        r1 / 1e6,
-                        r2 / 1e6
-                    );
-                    results.insert(
-                        set.kind.name().to_string(),
-                        serde_json::json!({"rays": set.origins.len(), "hits": hits, "rays_per_second_1": r1, "rays_per_second_2": r2}),
-                    );
+                        one_thread[0] / one_thread[2],
+                        one_thread[1] / one_thread[2]
+                    ));
                 }
+                let [results, four, cwbvh] = results;
                 if let Some(dir) = &dump {
-                    let meta = serde_json::json!({"scene": name, "triangles": s.triangle_count(), "wedge": results});
-                    rays::dump(&dir.join(name), s, &sets, &meta)?;
+                    let meta = serde_json::json!({"scene": name, "triangles": s.triangle_count(), "wedge": results, "wedge_4_wide": four, "cwbvh": cwbvh});
+                    rays::dump(&dir.join(&name), s, &sets, &meta)?;
                 }
+            }
+            println!("\n| scene | kind | wedge default / CWBVH (1 thread) | wedge 4-wide / CWBVH |\n|---|---|---|---|");
+            for r in ratios {
+                println!("{r}");
             }
             Ok(())
         }

@@ -1,6 +1,12 @@
-//! Triangles and their acceleration structure (obvhs CWBVH): closest hit and occlusion.
+//! Triangles and their acceleration structure: closest hit and occlusion.
+//!
+//! The tree is built by obvhs. It is traced either as wedge's own wide BVH (`super::wide_bvh`, the
+//! default: 8 children per node on CPUs with AVX2, else 4) or as obvhs's compressed 8-wide BVH,
+//! kept so that the ray benchmark can compare them on the same rays.
+use super::wide_bvh::{WideBvh, Width};
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::{
+    bvh2::builder::build_bvh2_from_tris,
     cwbvh::{builder::build_cwbvh_from_tris, CwBvh},
     ray::{Ray, RayHit},
     rt_triangle::RtTriangle,
@@ -42,6 +48,27 @@ impl BvhQuality {
             BvhQuality::Slow => BvhBuildParams::slow_build(),
         }
     }
+}
+
+/// How the built tree is laid out and traced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BvhLayout {
+    /// wedge's wide BVH with vector box and triangle tests (`super::wide_bvh`).
+    Wide(Width),
+    /// obvhs's compressed 8-wide BVH and its traversal.
+    Cwbvh,
+}
+
+impl Default for BvhLayout {
+    /// The widest BVH this CPU traces fast.
+    fn default() -> Self {
+        BvhLayout::Wide(Width::best())
+    }
+}
+
+enum Accel {
+    Wide(WideBvh),
+    Cwbvh(CwBvh),
 }
 
 /// Collects triangles before the BVH is built.
@@ -105,19 +132,34 @@ impl GeometryBuilder {
         }
     }
 
-    pub fn build(self, quality: BvhQuality) -> Geometry {
+    pub fn build(self, quality: BvhQuality, layout: BvhLayout) -> Geometry {
         if self.positions.is_empty() {
             return Geometry { bvh: None, tris: Vec::new(), attrs: Vec::new(), normals: self.normals, uvs: self.uvs };
         }
         let input: Vec<Triangle> =
             self.positions.iter().map(|p| Triangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() }).collect();
         let mut build_time = Duration::ZERO;
-        let bvh = build_cwbvh_from_tris(&input, quality.params(), &mut build_time);
-        // Store triangles in BVH slot order so a hit's primitive_id indexes them directly (with
+        let (accel, slots) = match layout {
+            BvhLayout::Wide(width) => {
+                // Leaves of at most eight triangles (two 4-lane blocks): measured faster than four
+                // on the 1M-triangle terrain (BENCHMARKS.md).
+                let params = BvhBuildParams { max_prims_per_leaf: 8, ..quality.params() };
+                let bvh2 = build_bvh2_from_tris(&input, params, &mut build_time);
+                let slot_tris: Vec<[Vec3; 3]> =
+                    bvh2.primitive_indices.iter().map(|&i| self.positions[i as usize]).collect();
+                (Accel::Wide(WideBvh::from_bvh2(&bvh2, &slot_tris, width)), bvh2.primitive_indices)
+            }
+            BvhLayout::Cwbvh => {
+                let bvh = build_cwbvh_from_tris(&input, quality.params(), &mut build_time);
+                let slots = bvh.primitive_indices.clone();
+                (Accel::Cwbvh(bvh), slots)
+            }
+        };
+        // Store triangles in BVH slot order so a hit's slot indexes them directly (with
         // pre-splitting a triangle can occupy several slots).
-        let tris = bvh.primitive_indices.iter().map(|&i| RtTriangle::from(&input[i as usize])).collect();
-        let attrs = bvh.primitive_indices.iter().map(|&i| self.attrs[i as usize]).collect();
-        Geometry { bvh: Some(bvh), tris, attrs, normals: self.normals, uvs: self.uvs }
+        let tris = slots.iter().map(|&i| RtTriangle::from(&input[i as usize])).collect();
+        let attrs = slots.iter().map(|&i| self.attrs[i as usize]).collect();
+        Geometry { bvh: Some(accel), tris, attrs, normals: self.normals, uvs: self.uvs }
     }
 }
 
@@ -141,7 +183,7 @@ pub struct Hit {
 }
 
 pub struct Geometry {
-    bvh: Option<CwBvh>,
+    bvh: Option<Accel>,
     pub tris: Vec<RtTriangle>,
     pub attrs: Vec<TriAttr>,
     pub normals: Vec<[Vec3; 3]>,
@@ -162,43 +204,64 @@ impl Geometry {
     /// Closest hit with t in [tmin, tmax].
     #[inline]
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
-        let bvh = self.bvh.as_ref()?;
-        let ray = Ray::new(origin.into(), canonical(dir).into(), tmin, tmax);
-        let mut hit = RayHit::none();
-        if !bvh.ray_traverse(ray, &mut hit, |r, id| self.tris[id].intersect(r)) {
-            return None;
+        let dir = canonical(dir);
+        match self.bvh.as_ref()? {
+            Accel::Wide(bvh) => {
+                bvh.intersect(origin, dir, tmin, tmax).map(|h| Hit { t: h.t, slot: h.slot, b1: h.u, b2: h.v })
+            }
+            Accel::Cwbvh(bvh) => {
+                let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
+                let mut hit = RayHit::none();
+                if !bvh.ray_traverse(ray, &mut hit, |r, id| self.tris[id].intersect(r)) {
+                    return None;
+                }
+                let tri = &self.tris[hit.primitive_id as usize];
+                let b = tri.compute_barycentric(&ray);
+                Some(Hit { t: hit.t, slot: hit.primitive_id, b1: b.x, b2: b.y })
+            }
         }
-        let tri = &self.tris[hit.primitive_id as usize];
-        let b = tri.compute_barycentric(&ray);
-        Some(Hit { t: hit.t, slot: hit.primitive_id, b1: b.x, b2: b.y })
     }
 
     /// True when something lies on the segment origin + t dir, t in [tmin, tmax].
     #[inline]
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
-        let Some(bvh) = self.bvh.as_ref() else { return false };
-        let ray = Ray::new(origin.into(), canonical(dir).into(), tmin, tmax);
-        // ray_traverse_miss returns true when NOT occluded.
-        !bvh.ray_traverse_miss(ray, |r, id| self.tris[id].intersect(r))
+        let dir = canonical(dir);
+        match self.bvh.as_ref() {
+            None => false,
+            Some(Accel::Wide(bvh)) => bvh.occluded(origin, dir, tmin, tmax),
+            Some(Accel::Cwbvh(bvh)) => {
+                let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
+                // ray_traverse_miss returns true when NOT occluded.
+                !bvh.ray_traverse_miss(ray, |r, id| self.tris[id].intersect(r))
+            }
+        }
     }
 
     /// The nearest and the farthest hit on the segment origin + t dir, t in [tmin, tmax], in one
     /// traversal that never shortens the ray (what the AAF authors' any-hit shader collected):
     /// cheaper than a closest-hit query from each end.
     pub fn hit_range(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<(f32, f32)> {
-        let bvh = self.bvh.as_ref()?;
-        let ray = Ray::new(origin.into(), canonical(dir).into(), tmin, tmax);
+        let dir = canonical(dir);
         let (mut near, mut far) = (f32::INFINITY, f32::NEG_INFINITY);
-        let mut hit = RayHit::none();
-        bvh.ray_traverse(ray, &mut hit, |r, id| {
-            let t = self.tris[id].intersect(r);
-            if t.is_finite() {
-                near = near.min(t);
-                far = far.max(t);
+        let mut add = |t: f32| {
+            near = near.min(t);
+            far = far.max(t);
+        };
+        match self.bvh.as_ref()? {
+            Accel::Wide(bvh) => bvh.for_each_hit(origin, dir, tmin, tmax, add),
+            Accel::Cwbvh(bvh) => {
+                let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
+                let mut hit = RayHit::none();
+                bvh.ray_traverse(ray, &mut hit, |r, id| {
+                    let t = self.tris[id].intersect(r);
+                    if t.is_finite() {
+                        add(t);
+                    }
+                    // Never a hit for the traversal: every node the segment crosses is visited.
+                    f32::INFINITY
+                });
             }
-            // Never a hit for the traversal: every node the segment crosses is visited.
-            f32::INFINITY
-        });
+        }
         (near <= far).then_some((near, far))
     }
 
@@ -264,11 +327,28 @@ mod tests {
         (tris, b)
     }
 
+    /// The builder built in every layout and quality (slow pre-splits triangles, so that one
+    /// triangle sits in several leaves).
+    fn every_build(b: &GeometryBuilder) -> Vec<(String, Geometry)> {
+        let mut out = Vec::new();
+        for layout in [BvhLayout::Wide(Width::Eight), BvhLayout::Wide(Width::Four), BvhLayout::Cwbvh] {
+            for quality in [BvhQuality::Fast, BvhQuality::Medium, BvhQuality::Slow] {
+                out.push((format!("{layout:?} {quality:?}"), b.clone().build(quality, layout)));
+            }
+        }
+        out
+    }
+
     #[test]
     fn hit_range_is_the_nearest_and_farthest_hit_on_the_segment() {
-        let mut rng = Rng(0x9e37_79b9);
-        let (tris, b) = triangle_soup(&mut rng, 500, 0.4);
-        let g = b.build(BvhQuality::default());
+        let (tris, b) = triangle_soup(&mut Rng(0x9e37_79b9), 500, 0.4);
+        for (name, g) in every_build(&b) {
+            hit_range_matches_brute_force(&name, &g, &tris);
+        }
+    }
+
+    fn hit_range_matches_brute_force(name: &str, g: &Geometry, tris: &[[Vec3; 3]]) {
+        let mut rng = Rng(0x5bd1_e995);
         let mut seen = 0;
         for _ in 0..2000 {
             let (o, d, tmax) = (rng.v() * 6.0, rng.v().normalize(), 1.0 + rng.f() * 10.0);
@@ -290,24 +370,29 @@ mod tests {
                     assert!((n - gn).abs() <= 1e-5 * n.max(1.0) && (f - gf).abs() <= 1e-5 * f.max(1.0));
                     assert!(gn <= gf);
                 }
-                other => panic!("mismatch {other:?}"),
+                other => panic!("{name}: mismatch {other:?}"),
             }
         }
-        assert!(seen > 100, "only {seen} segments hit anything");
+        assert!(seen > 100, "{name}: only {seen} segments hit anything");
     }
 
     #[test]
     fn bvh_hits_equal_brute_force_on_random_triangles() {
-        let mut rng = Rng(0x1234_5678);
-        let (tris, b) = triangle_soup(&mut rng, 2000, 0.3);
+        let (tris, b) = triangle_soup(&mut Rng(0x1234_5678), 2000, 0.3);
         assert_eq!(b.degenerate, 0);
-        let g = b.build(BvhQuality::default());
+        for (name, g) in every_build(&b) {
+            hits_match_brute_force(&name, &g, &tris);
+        }
+    }
+
+    fn hits_match_brute_force(name: &str, g: &Geometry, tris: &[[Vec3; 3]]) {
+        let mut rng = Rng(0x2545_f491);
         let (mut hits, mut occl) = (0, 0);
         for _ in 0..3000 {
             let o = rng.v() * 6.0;
             let d = rng.v().normalize();
             let tmax = 1.0 + rng.f() * 10.0;
-            let expect = brute_force(&tris, o, d, tmax);
+            let expect = brute_force(tris, o, d, tmax);
             let got = g.intersect(o, d, 0.0, tmax);
             match (expect, got) {
                 (None, None) => {}
@@ -319,14 +404,14 @@ mod tests {
                         assert_eq!(g.attrs[h.slot as usize].object as usize, i);
                     }
                 }
-                (e, h) => panic!("brute force {e:?} vs bvh {h:?}"),
+                (e, h) => panic!("{name}: brute force {e:?} vs bvh {h:?}"),
             }
             if g.occluded(o, d, 0.0, tmax) {
                 occl += 1;
             }
-            assert_eq!(g.occluded(o, d, 0.0, tmax), expect.is_some());
+            assert_eq!(g.occluded(o, d, 0.0, tmax), expect.is_some(), "{name}");
         }
-        assert!(hits > 300 && occl == hits, "hits {hits} occl {occl}");
+        assert!(hits > 300 && occl == hits, "{name}: hits {hits} occl {occl}");
     }
 
     #[test]
@@ -334,14 +419,15 @@ mod tests {
         let mut b = GeometryBuilder::default();
         let p = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 3.0, 0.0)];
         b.push(p, None, None, 0, 0);
-        let g = b.build(BvhQuality::default());
-        let o = Vec3::new(0.5, 1.0, 5.0);
-        let h = g.intersect(o, Vec3::NEG_Z, 0.0, f32::INFINITY).unwrap();
-        let v = g.vertices(h.slot);
-        let x = v[0] * (1.0 - h.b1 - h.b2) + v[1] * h.b1 + v[2] * h.b2;
-        assert!((x - Vec3::new(0.5, 1.0, 0.0)).length() < 1e-6);
-        assert!((h.t - 5.0).abs() < 1e-6);
-        assert!((g.geometric_normal(h.slot) - Vec3::Z).length() < 1e-6);
+        for (name, g) in every_build(&b) {
+            let o = Vec3::new(0.5, 1.0, 5.0);
+            let h = g.intersect(o, Vec3::NEG_Z, 0.0, f32::INFINITY).unwrap();
+            let v = g.vertices(h.slot);
+            let x = v[0] * (1.0 - h.b1 - h.b2) + v[1] * h.b1 + v[2] * h.b2;
+            assert!((x - Vec3::new(0.5, 1.0, 0.0)).length() < 1e-6, "{name}");
+            assert!((h.t - 5.0).abs() < 1e-6, "{name}");
+            assert!((g.geometric_normal(h.slot) - Vec3::Z).length() < 1e-6, "{name}");
+        }
     }
 
     #[test]
@@ -350,11 +436,12 @@ mod tests {
         let (c, u, v) = (Vec3::new(-2.0, 0.0, -2.0), Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 4.0));
         b.push([c, c + u, c + u + v], None, None, 0, 0);
         b.push([c, c + u + v, c + v], None, None, 0, 0);
-        let g = b.build(BvhQuality::default());
-        let o = Vec3::new(0.3, 3.0, 0.2);
-        for d in [Vec3::NEG_Y, Vec3::new(-0.0, -1.0, -0.0)] {
-            assert_eq!(g.intersect(o, d, 0.0, f32::INFINITY).map(|h| h.t), Some(3.0), "{d:?}");
-            assert!(g.occluded(o, d, 0.0, 10.0), "{d:?}");
+        for (name, g) in every_build(&b) {
+            let o = Vec3::new(0.3, 3.0, 0.2);
+            for d in [Vec3::NEG_Y, Vec3::new(-0.0, -1.0, -0.0)] {
+                assert_eq!(g.intersect(o, d, 0.0, f32::INFINITY).map(|h| h.t), Some(3.0), "{name} {d:?}");
+                assert!(g.occluded(o, d, 0.0, 10.0), "{name} {d:?}");
+            }
         }
     }
 
@@ -365,9 +452,11 @@ mod tests {
         b.push([Vec3::ZERO, Vec3::ZERO, Vec3::ZERO], None, None, 0, 0);
         b.push([Vec3::ZERO, Vec3::NAN, Vec3::X], None, None, 0, 0);
         assert_eq!(b.degenerate, 3);
-        let g = b.build(BvhQuality::default());
-        assert_eq!(g.triangle_count(), 0);
-        assert!(g.intersect(Vec3::ZERO, Vec3::X, 0.0, 1.0).is_none());
-        assert!(!g.occluded(Vec3::ZERO, Vec3::X, 0.0, 1.0));
+        for (name, g) in every_build(&b) {
+            assert_eq!(g.triangle_count(), 0, "{name}");
+            assert!(g.intersect(Vec3::ZERO, Vec3::X, 0.0, 1.0).is_none(), "{name}");
+            assert!(!g.occluded(Vec3::ZERO, Vec3::X, 0.0, 1.0), "{name}");
+            assert!(g.hit_range(Vec3::ZERO, Vec3::X, 0.0, 1.0).is_none(), "{name}");
+        }
     }
 }

@@ -1,6 +1,6 @@
 //! The tracer and filter core. Knows nothing of gRPC or files.
 //!
-//! One file per concept: `camera`, `sampler`, `geometry` (triangles and BVH), `texture`,
+//! One file per concept: `camera`, `sampler`, `geometry` (triangles and BVH; `wide_bvh` its traversal), `texture`,
 //! `material`, `light`, `scene` (the compiled scene), `integrator` (radiance along a path),
 //! `film` (per-pixel estimates), `strategy` (what a pass does) with its implementations
 //! (`uniform`), and `progressive` (the pass loop and halt conditions).
@@ -22,3 +22,4 @@ pub mod scene;
 pub mod strategy;
 pub mod texture;
 pub mod uniform;
+pub mod wide_bvh;

@@ -7,7 +7,7 @@
 //! for scenes measured in millimetres or kilometres. Point-light intensity is the one
 //! radiometric quantity with a length in it (E = I / r^2), so it is rescaled by s^2.
 use super::camera::Camera;
-use super::geometry::{BvhQuality, Geometry, GeometryBuilder, Hit, NONE};
+use super::geometry::{BvhLayout, BvhQuality, Geometry, GeometryBuilder, Hit, NONE};
 use super::light::{Light, RectLight};
 use super::material::Material;
 use glam::{Vec2, Vec3};
@@ -34,6 +34,7 @@ pub struct SceneBuilder {
     pub lights: Vec<Light>,
     pub objects: u32,
     pub bvh_quality: BvhQuality,
+    pub bvh_layout: BvhLayout,
 }
 
 impl SceneBuilder {
@@ -45,6 +46,7 @@ impl SceneBuilder {
             lights: Vec::new(),
             objects: 0,
             bvh_quality: BvhQuality::default(),
+            bvh_layout: BvhLayout::default(),
         }
     }
 
@@ -111,7 +113,7 @@ impl SceneBuilder {
         let extent = if diag.is_finite() && diag > 0.0 { (hi - lo) * scale } else { Vec3::ZERO };
         Scene {
             camera,
-            geometry: self.geometry.build(self.bvh_quality),
+            geometry: self.geometry.build(self.bvh_quality, self.bvh_layout),
             materials: self.materials,
             lights: self.lights,
             world_scale: scale,

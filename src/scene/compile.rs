@@ -21,6 +21,16 @@ pub const MAX_RADIANCE: f32 = 1e9;
 pub const MAX_INTENSITY: f32 = 1e12;
 
 pub fn compile(scene: &proto::Scene, limits: &SceneLimits, base_dir: Option<&Path>) -> FieldResult<Scene> {
+    Ok(compile_builder(scene, limits, base_dir)?.build())
+}
+
+/// Validates the scene and collects it, before the BVH is built (so that a caller can choose
+/// its build options).
+pub fn compile_builder(
+    scene: &proto::Scene,
+    limits: &SceneLimits,
+    base_dir: Option<&Path>,
+) -> FieldResult<SceneBuilder> {
     let camera = camera("scene.camera", &scene.camera, limits)?;
     let mut b = SceneBuilder::new(camera);
     let materials = materials(&scene.materials, &mut b)?;
@@ -66,7 +76,7 @@ pub fn compile(scene: &proto::Scene, limits: &SceneLimits, base_dir: Option<&Pat
         let uses_uv = b.materials[material as usize].uses_uv();
         place(&mut b, mesh, &xf, material, object, uses_uv);
     }
-    Ok(b.build())
+    Ok(b)
 }
 
 fn camera(path: &str, c: &Option<proto::Camera>, limits: &SceneLimits) -> FieldResult<CameraDesc> {

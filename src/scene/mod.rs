@@ -81,3 +81,13 @@ pub fn compile(
 ) -> Result<crate::render::scene::Scene, FieldError> {
     compile::compile(scene, limits, base_dir)
 }
+
+/// `compile` up to the BVH build, which the caller starts with `SceneBuilder::build` after
+/// choosing its options (the ray benchmark compares BVH layouts).
+pub fn compile_builder(
+    scene: &proto::Scene,
+    limits: &SceneLimits,
+    base_dir: Option<&Path>,
+) -> Result<crate::render::scene::SceneBuilder, FieldError> {
+    compile::compile_builder(scene, limits, base_dir)
+}

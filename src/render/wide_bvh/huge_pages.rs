@@ -1,0 +1,51 @@
+//! Large BVH arrays backed by 2 MiB pages where the kernel offers them.
+//!
+//! Tracing a large mesh touches nodes and triangles all over tens of megabytes; with 4 KiB pages
+//! most of those accesses also miss the TLB. Linux hands out transparent huge pages to ranges
+//! marked with `madvise(MADV_HUGEPAGE)` (the default policy on many systems is "madvise", which
+//! gives them to no one else), and Embree marks its BVH memory the same way. The advice must come
+//! before the pages are first written, so the array is copied into a fresh, advised allocation.
+
+/// Arrays smaller than this stay as they are (a few huge pages at most would be gained).
+const MIN_BYTES: usize = 4 << 20;
+
+/// `v` moved into memory advised to use huge pages (on Linux, when it is large enough).
+pub fn advise<T: Copy>(v: Vec<T>) -> Vec<T> {
+    let bytes = std::mem::size_of_val(v.as_slice());
+    if !cfg!(target_os = "linux") || bytes < MIN_BYTES {
+        return v;
+    }
+    let mut out: Vec<T> = Vec::with_capacity(v.len());
+    mark(out.as_ptr() as usize, bytes);
+    out.extend_from_slice(&v);
+    out
+}
+
+#[cfg(target_os = "linux")]
+fn mark(start: usize, bytes: usize) {
+    const HUGE: usize = 2 << 20;
+    // The whole 2 MiB pages inside the allocation.
+    let (lo, hi) = (start.div_ceil(HUGE) * HUGE, (start + bytes) / HUGE * HUGE);
+    if hi > lo {
+        // SAFETY: [lo, hi) lies inside an allocation this process owns and has not yet written;
+        // MADV_HUGEPAGE is advice about how to back it and changes no contents. Failure (a
+        // kernel without THP) leaves ordinary pages, so the result is ignored.
+        unsafe {
+            libc::madvise(lo as *mut libc::c_void, hi - lo, libc::MADV_HUGEPAGE);
+        }
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn mark(_start: usize, _bytes: usize) {}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn contents_survive_the_move() {
+        let big: Vec<u64> = (0..(1u64 << 20)).collect();
+        assert_eq!(super::advise(big.clone()), big);
+        let small = vec![1.5f32; 10];
+        assert_eq!(super::advise(small.clone()), small);
+    }
+}

@@ -1,0 +1,390 @@
+//! A wide BVH (4 or 8 children per node) traced one ray at a time with vector box and triangle
+//! tests, as Embree traces single rays.
+//!
+//! obvhs builds the tree (a binary BVH: PLOC, reinsertion, SAH leaf collapse); this module
+//! collapses it to 8 children per node where the CPU has AVX2 and FMA (checked at run time, so
+//! the portable binary uses them too) and to 4 otherwise (SSE, part of every x86-64, or plain
+//! code elsewhere), and packs each leaf's triangles into 4-lane `Tri4` blocks. One vector slab
+//! test gives the entry distance of all children of a node; they are visited nearest first.
+//! Compared with obvhs's own compressed 8-wide traversal (CWBVH: quantised boxes, decoded per
+//! node, designed for GPUs), this spends fewer instructions per node on a CPU.
+mod huge_pages;
+mod node;
+mod simd;
+mod tri4;
+
+use glam::Vec3;
+#[cfg(target_arch = "x86_64")]
+use node::Node8;
+use node::{Node4, RayBox, WideNode, LEAF, NO_CHILD};
+use obvhs::bvh2::Bvh2;
+use simd::F4;
+use tri4::{Ray4, Tri4};
+
+/// Blocks per leaf are counted in three bits.
+const MAX_LEAF_BLOCKS: usize = 8;
+/// Traversal stack kept on the machine stack when the tree is shallow enough (width - 1 entries
+/// per level at most); deeper trees, which only degenerate inputs give, use a heap stack.
+const INLINE_STACK: usize = 64;
+
+/// Children per node.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Width {
+    Four,
+    /// Needs AVX2 and FMA.
+    Eight,
+}
+
+impl Width {
+    /// The widest this CPU traces fast: 8 with AVX2 and FMA, else 4.
+    pub fn best() -> Width {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+            return Width::Eight;
+        }
+        Width::Four
+    }
+
+    fn children(self) -> usize {
+        match self {
+            Width::Four => 4,
+            Width::Eight => 8,
+        }
+    }
+}
+
+/// A closest hit: distance, triangle slot and the barycentrics of the second and third vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WideHit {
+    pub t: f32,
+    pub slot: u32,
+    pub u: f32,
+    pub v: f32,
+}
+
+enum Nodes {
+    Four(Vec<Node4>),
+    #[cfg(target_arch = "x86_64")]
+    Eight(Vec<Node8>),
+}
+
+pub struct WideBvh {
+    nodes: Nodes,
+    blocks: Vec<Tri4>,
+    root: u32,
+    /// Stack entries a traversal can need: width - 1 per level below the root, plus one.
+    stack_need: usize,
+}
+
+/// A node while the tree is collapsed: child minima and maxima per axis, child references.
+type NodeArrays = ([[f32; 8]; 3], [[f32; 8]; 3], [u32; 8]);
+
+#[derive(Clone, Copy)]
+struct Entry {
+    node: u32,
+    t: f32,
+}
+
+impl WideBvh {
+    /// Collapses `bvh2` (built over triangles whose slot `i` has vertices `slot_tris[i]`) to
+    /// `width` children per node. `Width::Eight` on a CPU without AVX2 and FMA (or not x86-64)
+    /// falls back to four.
+    pub fn from_bvh2(bvh2: &Bvh2, slot_tris: &[[Vec3; 3]], width: Width) -> Self {
+        let width = if width == Width::Eight && Width::best() == Width::Eight { width } else { Width::Four };
+        let w = width.children();
+        let mut blocks = Vec::new();
+        let mut nodes: Vec<NodeArrays> = Vec::new();
+        // Unused lanes keep an empty box (min +inf, max -inf), which no ray enters.
+        let empty = ([[f32::INFINITY; 8]; 3], [[f32::NEG_INFINITY; 8]; 3], [NO_CHILD; 8]);
+        let mut depth = 0;
+        // (bvh2 inner node, its index here, its depth). A node's children are all created when
+        // it is, so that they sit next to each other in memory (as do their leaves' blocks): the
+        // traversal tests a node and then reads some of its children.
+        let mut todo: Vec<(usize, usize, usize)> = Vec::new();
+        let root = match bvh2.nodes.first() {
+            _ if slot_tris.is_empty() => NO_CHILD,
+            None => NO_CHILD,
+            Some(r) if r.prim_count > 0 => leaf(&mut blocks, r.first_index as usize, r.prim_count as usize, slot_tris),
+            Some(_) => {
+                nodes.push(empty);
+                todo.push((0, 0, 0));
+                0
+            }
+        };
+        while let Some((n, index, level)) = todo.pop() {
+            depth = depth.max(level);
+            for (lane, k) in open_up_to(bvh2, n, w).into_iter().enumerate() {
+                let kid = &bvh2.nodes[k];
+                let reference = if kid.prim_count > 0 {
+                    leaf(&mut blocks, kid.first_index as usize, kid.prim_count as usize, slot_tris)
+                } else {
+                    nodes.push(empty);
+                    todo.push((k, nodes.len() - 1, level + 1));
+                    (nodes.len() - 1) as u32
+                };
+                let node = &mut nodes[index];
+                for a in 0..3 {
+                    node.0[a][lane] = kid.aabb.min[a];
+                    node.1[a][lane] = kid.aabb.max[a];
+                }
+                node.2[lane] = reference;
+            }
+        }
+        // Leaves hang one level below the deepest inner node.
+        let depth = if nodes.is_empty() { 0 } else { depth + 1 };
+        let nodes = match width {
+            Width::Four => Nodes::Four(huge_pages::advise(nodes.iter().map(|n| Node4::new(n.0, n.1, n.2)).collect())),
+            #[cfg(target_arch = "x86_64")]
+            Width::Eight => Nodes::Eight(huge_pages::advise(nodes.iter().map(|n| Node8::new(n.0, n.1, n.2)).collect())),
+            #[cfg(not(target_arch = "x86_64"))]
+            Width::Eight => unreachable!("eight-wide nodes fall back to four off x86-64"),
+        };
+        WideBvh { nodes, blocks: huge_pages::advise(blocks), root, stack_need: (w - 1) * depth + 1 }
+    }
+
+    pub fn width(&self) -> Width {
+        match self.nodes {
+            Nodes::Four(_) => Width::Four,
+            #[cfg(target_arch = "x86_64")]
+            Nodes::Eight(_) => Width::Eight,
+        }
+    }
+
+    pub fn node_count(&self) -> usize {
+        match &self.nodes {
+            Nodes::Four(n) => n.len(),
+            #[cfg(target_arch = "x86_64")]
+            Nodes::Eight(n) => n.len(),
+        }
+    }
+
+    pub fn block_count(&self) -> usize {
+        self.blocks.len()
+    }
+
+    /// Closest hit with t in [tmin, tmax].
+    pub fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<WideHit> {
+        let mut best: Option<WideHit> = None;
+        let mut tmax = tmax;
+        let ray = Ray4::new(o, d);
+        self.walk(o, d, tmin, &mut tmax, true, |blocks, tmax| {
+            for b in blocks {
+                let h = b.intersect(&ray, F4::splat(tmin), F4::splat(*tmax));
+                let mut m = h.mask;
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    if h.t[i] <= *tmax {
+                        *tmax = h.t[i];
+                        best =
+                            Some(WideHit { t: h.t[i], slot: b.slots[i], u: h.u.to_array()[i], v: h.v.to_array()[i] });
+                    }
+                }
+            }
+            false
+        });
+        best
+    }
+
+    /// True when some triangle lies on the segment at t in [tmin, tmax].
+    pub fn occluded(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> bool {
+        let ray = Ray4::new(o, d);
+        let mut tmax = tmax;
+        self.walk(o, d, tmin, &mut tmax, false, |blocks, tmax| {
+            blocks.iter().any(|b| b.intersect(&ray, F4::splat(tmin), F4::splat(*tmax)).mask != 0)
+        })
+    }
+
+    /// Calls `f` with the distance of every hit on the segment (a triangle in several leaves,
+    /// which spatial splits allow, may be reported more than once).
+    pub fn for_each_hit(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, mut f: impl FnMut(f32)) {
+        let ray = Ray4::new(o, d);
+        let mut tmax = tmax;
+        self.walk(o, d, tmin, &mut tmax, false, |blocks, tmax| {
+            for b in blocks {
+                let h = b.intersect(&ray, F4::splat(tmin), F4::splat(*tmax));
+                for i in 0..4 {
+                    if h.mask >> i & 1 == 1 {
+                        f(h.t[i]);
+                    }
+                }
+            }
+            false
+        });
+    }
+
+    /// Visits the leaves whose boxes the segment enters, nearest child first when `ordered`;
+    /// `leaf` may shorten `tmax` and returns true to stop. Returns whether a leaf stopped it.
+    #[inline(always)]
+    fn walk(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        tmin: f32,
+        tmax: &mut f32,
+        ordered: bool,
+        leaf: impl FnMut(&[Tri4], &mut f32) -> bool,
+    ) -> bool {
+        if self.root == NO_CHILD {
+            return false;
+        }
+        let ray = RayBox::new(o, d);
+        let q = Query { blocks: &self.blocks, root: self.root, ray: &ray, tmin, ordered };
+        let mut inline = [Entry { node: 0, t: 0.0 }; INLINE_STACK];
+        let mut heap = Vec::new();
+        let stack: &mut [Entry] = if self.stack_need <= INLINE_STACK {
+            &mut inline
+        } else {
+            heap.resize(self.stack_need, Entry { node: 0, t: 0.0 });
+            &mut heap
+        };
+        match &self.nodes {
+            // SAFETY: Node4 needs nothing beyond the build target.
+            Nodes::Four(nodes) => unsafe { q.run(nodes, stack, tmax, leaf) },
+            // SAFETY: eight-wide nodes are only built when the CPU has AVX2 and FMA.
+            #[cfg(target_arch = "x86_64")]
+            Nodes::Eight(nodes) => unsafe { q.run_avx2(nodes, stack, tmax, leaf) },
+        }
+    }
+}
+
+/// One traversal's inputs.
+struct Query<'a> {
+    blocks: &'a [Tri4],
+    root: u32,
+    ray: &'a RayBox,
+    tmin: f32,
+    ordered: bool,
+}
+
+impl Query<'_> {
+    /// `run` compiled with AVX2 and FMA enabled, so that the inlined node, triangle and
+    /// traversal code all use them.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn run_avx2<N: WideNode>(
+        &self,
+        nodes: &[N],
+        stack: &mut [Entry],
+        tmax: &mut f32,
+        leaf: impl FnMut(&[Tri4], &mut f32) -> bool,
+    ) -> bool {
+        // SAFETY: forwarded from this function's contract.
+        unsafe { self.run(nodes, stack, tmax, leaf) }
+    }
+
+    /// The traversal loop. `stack` must hold `stack_need` entries.
+    ///
+    /// # Safety
+    /// The CPU must support `N`'s instruction set (see `WideNode::enter`).
+    #[inline(always)]
+    unsafe fn run<N: WideNode>(
+        &self,
+        nodes: &[N],
+        stack: &mut [Entry],
+        tmax: &mut f32,
+        mut leaf: impl FnMut(&[Tri4], &mut f32) -> bool,
+    ) -> bool {
+        let mut t = [0.0f32; 8];
+        let mut sp = 0;
+        let mut cur = self.root;
+        loop {
+            // Descend through inner nodes, pushing the farther children.
+            while cur & LEAF == 0 {
+                let node = &nodes[cur as usize];
+                // SAFETY: forwarded from this function's contract.
+                let mut mask = unsafe { node.enter(self.ray, self.tmin, *tmax, &mut t) };
+                if mask == 0 {
+                    cur = NO_CHILD;
+                    break;
+                }
+                let first = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                if mask == 0 {
+                    cur = node.child(first);
+                    continue;
+                }
+                // Several children: push them all, sorted so the nearest is on top, then pop it
+                // straight away.
+                let base = sp;
+                stack[sp] = Entry { node: node.child(first), t: t[first] };
+                sp += 1;
+                while mask != 0 {
+                    let lane = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let e = Entry { node: node.child(lane), t: t[lane] };
+                    let mut j = sp;
+                    if self.ordered {
+                        // Insertion keeping entries in decreasing distance upwards.
+                        while j > base && stack[j - 1].t < e.t {
+                            stack[j] = stack[j - 1];
+                            j -= 1;
+                        }
+                    }
+                    stack[j] = e;
+                    sp += 1;
+                }
+                sp -= 1;
+                cur = stack[sp].node;
+            }
+            if cur != NO_CHILD {
+                let start = ((cur & !LEAF) >> 3) as usize;
+                let count = (cur & 7) as usize + 1;
+                if leaf(&self.blocks[start..start + count], tmax) {
+                    return true;
+                }
+            }
+            // Pop the next node still nearer than the closest hit.
+            loop {
+                if sp == 0 {
+                    return false;
+                }
+                sp -= 1;
+                let e = stack[sp];
+                if e.t <= *tmax {
+                    cur = e.node;
+                    break;
+                }
+            }
+        }
+    }
+}
+
+/// Packs the slots first..first + count into blocks of four; returns the leaf reference.
+fn leaf(blocks: &mut Vec<Tri4>, first: usize, count: usize, slot_tris: &[[Vec3; 3]]) -> u32 {
+    let start = blocks.len();
+    let lanes: Vec<([Vec3; 3], u32)> = (first..first + count).map(|s| (slot_tris[s], s as u32)).collect();
+    for chunk in lanes.chunks(4) {
+        blocks.push(Tri4::new(chunk));
+    }
+    let n = blocks.len() - start;
+    assert!(n <= MAX_LEAF_BLOCKS, "a leaf of {count} triangles exceeds {MAX_LEAF_BLOCKS} blocks");
+    assert!(start < 1 << 28, "too many triangle blocks for a 28-bit index");
+    LEAF | (start as u32) << 3 | (n as u32 - 1)
+}
+
+/// The bvh2 nodes that become the children of bvh2 node `n` in a `w`-wide tree: starting from
+/// its two children, the inner child of largest surface area is replaced by its own two children
+/// until there are `w` (SAH-style collapse, as Embree's wide BVH builders open nodes).
+fn open_up_to(bvh2: &Bvh2, n: usize, w: usize) -> Vec<usize> {
+    let first = bvh2.nodes[n].first_index as usize;
+    let mut kids = vec![first, first + 1];
+    while kids.len() < w {
+        let widest = kids
+            .iter()
+            .enumerate()
+            .filter(|(_, &k)| bvh2.nodes[k].prim_count == 0)
+            .max_by(|a, b| bvh2.nodes[*a.1].aabb.half_area().total_cmp(&bvh2.nodes[*b.1].aabb.half_area()));
+        let Some((i, &k)) = widest else { break };
+        let f = bvh2.nodes[k].first_index as usize;
+        kids[i] = f;
+        kids.push(f + 1);
+    }
+    kids
+}
+
+#[cfg(test)]
+mod tests;

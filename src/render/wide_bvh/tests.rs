@@ -1,0 +1,204 @@
+use super::*;
+use obvhs::BvhBuildParams;
+use obvhs::{bvh2::builder::build_bvh2_from_tris, ray::Ray, rt_triangle::RtTriangle, triangle::Triangle};
+use std::time::Duration;
+
+struct Rng(u64);
+impl Rng {
+    fn f(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn v(&mut self) -> Vec3 {
+        Vec3::new(self.f(), self.f(), self.f()) * 2.0 - 1.0
+    }
+}
+
+/// The widths this CPU can trace.
+fn widths() -> Vec<Width> {
+    if Width::best() == Width::Eight {
+        vec![Width::Four, Width::Eight]
+    } else {
+        vec![Width::Four]
+    }
+}
+
+/// Builds the tree over `tris` with obvhs leaves of at most `leaf` triangles; returns it with the
+/// triangles in slot order.
+fn build(tris: &[[Vec3; 3]], leaf: u32, pre_split: bool, width: Width) -> (WideBvh, Vec<[Vec3; 3]>) {
+    let input: Vec<Triangle> =
+        tris.iter().map(|p| Triangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() }).collect();
+    let params = BvhBuildParams { max_prims_per_leaf: leaf, pre_split, ..BvhBuildParams::medium_build() };
+    let bvh2 = build_bvh2_from_tris(&input, params, &mut Duration::default());
+    let slots: Vec<[Vec3; 3]> = bvh2.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
+    let bvh = WideBvh::from_bvh2(&bvh2, &slots, width);
+    assert_eq!(bvh.width(), width);
+    (bvh, slots)
+}
+
+/// Closest t over all triangles by brute force, with obvhs's triangle test.
+fn brute(tris: &[[Vec3; 3]], o: Vec3, d: Vec3, tmax: f32) -> Option<f32> {
+    let ray = Ray::new(o.into(), d.into(), 0.0, tmax);
+    tris.iter()
+        .map(|p| RtTriangle::new(p[0].into(), p[1].into(), p[2].into()).intersect(&ray))
+        .filter(|t| t.is_finite())
+        .min_by(f32::total_cmp)
+}
+
+/// Every query agrees with brute force: closest distance, the slot's triangle holds the hit
+/// point, occlusion, and the number of hits on the segment.
+fn check(bvh: &WideBvh, slots: &[[Vec3; 3]], tris: &[[Vec3; 3]], rays: &[(Vec3, Vec3, f32)]) -> usize {
+    let mut hits = 0;
+    for &(o, d, tmax) in rays {
+        let expect = brute(tris, o, d, tmax);
+        let got = bvh.intersect(o, d, 0.0, tmax);
+        assert_eq!(got.is_some(), expect.is_some(), "ray {o:?} {d:?}: {got:?} vs {expect:?}");
+        assert_eq!(bvh.occluded(o, d, 0.0, tmax), expect.is_some());
+        if let (Some(h), Some(t)) = (got, expect) {
+            hits += 1;
+            assert!((h.t - t).abs() <= 1e-6 * t.max(1.0), "{} vs {t}", h.t);
+            let p = slots[h.slot as usize];
+            let x = p[0] * (1.0 - h.u - h.v) + p[1] * h.u + p[2] * h.v;
+            assert!((x - (o + d * h.t)).length() < 1e-4 * (1.0 + h.t), "barycentrics");
+        }
+        let ray = Ray::new(o.into(), d.into(), 0.0, tmax);
+        let all = tris
+            .iter()
+            .filter(|p| RtTriangle::new(p[0].into(), p[1].into(), p[2].into()).intersect(&ray).is_finite())
+            .count();
+        let mut seen = 0;
+        bvh.for_each_hit(o, d, 0.0, tmax, |_| seen += 1);
+        assert_eq!(seen, all, "hits on the segment");
+    }
+    hits
+}
+
+fn random_rays(rng: &mut Rng, n: usize) -> Vec<(Vec3, Vec3, f32)> {
+    (0..n).map(|_| (rng.v() * 6.0, rng.v().normalize(), 1.0 + rng.f() * 10.0)).collect()
+}
+
+/// Rays from around the triangles towards points near random triangles' centroids.
+fn aimed_rays(rng: &mut Rng, tris: &[[Vec3; 3]], n: usize) -> Vec<(Vec3, Vec3, f32)> {
+    (0..n)
+        .map(|_| {
+            let o = rng.v() * 6.0;
+            let p = tris[(rng.f() * tris.len() as f32) as usize % tris.len()];
+            let target = (p[0] + p[1] + p[2]) / 3.0 + rng.v() * 0.05;
+            (o, (target - o).normalize(), 30.0)
+        })
+        .collect()
+}
+
+fn soup(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
+    (0..n)
+        .map(|_| {
+            let c = rng.v() * 4.0;
+            [c + rng.v() * 0.4, c + rng.v() * 0.4, c + rng.v() * 0.4]
+        })
+        .collect()
+}
+
+#[test]
+fn queries_equal_brute_force_for_leaf_sizes_of_one_to_several_blocks() {
+    let mut rng = Rng(0x1234_5678);
+    let tris = soup(&mut rng, 1500);
+    let rays = random_rays(&mut rng, 1500);
+    // Leaves of up to 8 and 16 triangles span two and four blocks.
+    for width in widths() {
+        for leaf in [1, 4, 8, 16] {
+            let (bvh, slots) = build(&tris, leaf, false, width);
+            assert!(check(&bvh, &slots, &tris, &rays) > 200, "{width:?} leaf {leaf}");
+        }
+    }
+}
+
+#[test]
+fn spatial_splits_put_a_triangle_in_several_leaves_and_hits_stay_exact() {
+    let mut rng = Rng(0x0bad_cafe);
+    // Small triangles and a few long diagonal ones, which pre-splitting cuts into several leaves
+    // (it splits triangles whose boxes are far larger than the average and mostly empty).
+    let mut tris = soup(&mut rng, 400);
+    for _ in 0..8 {
+        let (c, e) = (rng.v(), Vec3::new(4.0, 4.0 * rng.f(), -4.0));
+        tris.push([c - e, c + e, c + e + rng.v() * 0.3]);
+    }
+    let rays = aimed_rays(&mut rng, &tris, 1000);
+    for width in widths() {
+        let (bvh, slots) = build(&tris, 4, true, width);
+        assert!(slots.len() > tris.len(), "no triangle was split: {} slots", slots.len());
+        let mut hits = 0;
+        for &(o, d, tmax) in &rays {
+            let expect = brute(&tris, o, d, tmax);
+            let got = bvh.intersect(o, d, 0.0, tmax);
+            assert_eq!(got.map(|h| h.t), expect, "{width:?} ray {o:?} {d:?}");
+            assert_eq!(bvh.occluded(o, d, 0.0, tmax), expect.is_some());
+            hits += got.is_some() as usize;
+        }
+        assert!(hits > 200, "{width:?}: {hits}");
+    }
+}
+
+#[test]
+fn a_tree_that_is_a_single_leaf_and_the_heap_stack_give_the_same_answers() {
+    let mut rng = Rng(0x7777_1111);
+    let one = soup(&mut rng, 1);
+    let few = soup(&mut rng, 3);
+    let tris = soup(&mut rng, 800);
+    let rays = aimed_rays(&mut rng, &tris, 800);
+    for width in widths() {
+        let (bvh, slots) = build(&one, 4, false, width);
+        assert_eq!((bvh.node_count(), bvh.block_count()), (0, 1), "one triangle makes a root leaf");
+        assert!(check(&bvh, &slots, &one, &aimed_rays(&mut rng, &one, 500)) > 50);
+        let (bvh, slots) = build(&few, 4, false, width);
+        assert!(check(&bvh, &slots, &few, &aimed_rays(&mut rng, &few, 500)) > 50);
+
+        let (mut bvh, slots) = build(&tris, 4, false, width);
+        let inline: Vec<_> = rays.iter().map(|&(o, d, t)| bvh.intersect(o, d, 0.0, t)).collect();
+        // Pretend the tree is too deep for the inline stack.
+        bvh.stack_need = INLINE_STACK + 1;
+        let heap: Vec<_> = rays.iter().map(|&(o, d, t)| bvh.intersect(o, d, 0.0, t)).collect();
+        assert_eq!(inline, heap);
+        assert!(check(&bvh, &slots, &tris, &rays) > 100);
+    }
+}
+
+#[test]
+fn rays_on_a_flat_grid_lose_no_hit_at_box_boundaries() {
+    // A 48x48 quad grid at y = 0: every inner box is flat, and rays from above land on box
+    // edges and corners (x, z on the grid lines) as well as inside cells.
+    let n = 48;
+    let p = |i: usize, j: usize| Vec3::new(i as f32 / n as f32 * 4.0 - 2.0, 0.0, j as f32 / n as f32 * 4.0 - 2.0);
+    let mut tris = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            tris.push([p(i, j), p(i + 1, j + 1), p(i + 1, j)]);
+            tris.push([p(i, j), p(i, j + 1), p(i + 1, j + 1)]);
+        }
+    }
+    let mut rng = Rng(0x3141_5926);
+    let mut rays = Vec::new();
+    for k in 0..3000 {
+        // Targets 1e-4 from a grid vertex (k even: close to the boxes' faces and corners, not on
+        // a triangle edge, where the two triangle tests could round differently) or anywhere.
+        let (a, b) = (1 + (rng.f() * (n - 2) as f32) as usize, 1 + (rng.f() * (n - 2) as f32) as usize);
+        let target = if k % 2 == 0 {
+            p(a, b) + Vec3::new(1e-4, 0.0, if k % 4 == 0 { 3e-4 } else { -2e-4 })
+        } else {
+            p(a, b) + Vec3::new(rng.f(), 0.0, rng.f()) * 0.05
+        };
+        let o = target + Vec3::new(rng.f() - 0.5, 1.0 + rng.f(), rng.f() - 0.5) * 3.0;
+        rays.push((o, (target - o).normalize(), 100.0));
+    }
+    // Axis-aligned rays straight down, including -0.0 components.
+    for k in 0..200 {
+        let t = p(1 + k % (n - 2), 1 + (k * 7) % (n - 2)) + Vec3::new(0.013, 0.0, 0.029);
+        rays.push((t + Vec3::Y * 2.0, Vec3::new(-0.0, -1.0, 0.0), 100.0));
+    }
+    for width in widths() {
+        let (bvh, slots) = build(&tris, 4, false, width);
+        let hits = check(&bvh, &slots, &tris, &rays);
+        assert!(hits > 3000, "{width:?}: {hits} hits");
+    }
+}
