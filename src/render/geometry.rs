@@ -283,20 +283,7 @@ impl Geometry {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Deterministic xorshift for test data.
-    struct Rng(u64);
-    impl Rng {
-        fn f(&mut self) -> f32 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 40) as f32 / (1u64 << 24) as f32
-        }
-        fn v(&mut self) -> Vec3 {
-            Vec3::new(self.f(), self.f(), self.f()) * 2.0 - 1.0
-        }
-    }
+    use crate::render::test_rng::Rng;
 
     fn brute_force(tris: &[[Vec3; 3]], o: Vec3, d: Vec3, tmax: f32) -> Option<(f32, usize)> {
         let mut best: Option<(f32, usize)> = None;

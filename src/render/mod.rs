@@ -20,6 +20,8 @@ pub mod progressive;
 pub mod sampler;
 pub mod scene;
 pub mod strategy;
+#[cfg(test)]
+pub mod test_rng;
 pub mod texture;
 pub mod uniform;
 pub mod wide_bvh;

@@ -1,20 +1,8 @@
 use super::*;
+use crate::render::test_rng::Rng;
 use obvhs::BvhBuildParams;
 use obvhs::{bvh2::builder::build_bvh2_from_tris, ray::Ray, rt_triangle::RtTriangle, triangle::Triangle};
 use std::time::Duration;
-
-struct Rng(u64);
-impl Rng {
-    fn f(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn v(&mut self) -> Vec3 {
-        Vec3::new(self.f(), self.f(), self.f()) * 2.0 - 1.0
-    }
-}
 
 /// The widths this CPU can trace.
 fn widths() -> Vec<Width> {
