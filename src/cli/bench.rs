@@ -2,7 +2,7 @@
 use crate::bench::{latency, machine_description, median, rays};
 use crate::proto;
 use crate::render::geometry::{BvhLayout, BvhQuality};
-use crate::render::wide_bvh::Width;
+use crate::render::wide_bvh::{LeafCost, Width};
 use crate::scene::{builtin, compile_builder, SceneLimits};
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
@@ -96,6 +96,10 @@ pub enum BenchKind {
         /// Write triangles and rays here for bench/embree_compare.py.
         #[arg(long)]
         dump: Option<PathBuf>,
+        /// Leaf choice of wedge's wide BVH, as NODE,MAX: the cost of a binary node's box test
+        /// relative to a 4-triangle block test, and the largest leaf in triangles.
+        #[arg(long, default_value = "1.5,16")]
+        leaf_cost: String,
     },
     /// Latency from a Render request to its first frame over gRPC.
     Latency {
@@ -113,18 +117,33 @@ pub enum BenchKind {
     },
 }
 
-/// What `bench rays` compares: wedge's default BVH (8-wide with AVX2), its 4-wide BVH, obvhs's.
-const LAYOUTS: [(&str, BvhLayout); 3] = [
-    ("wedge default", BvhLayout::Wide(Width::Eight)),
-    ("wedge 4-wide", BvhLayout::Wide(Width::Four)),
-    ("obvhs CWBVH", BvhLayout::Cwbvh),
-];
+/// What `bench rays` compares on the same rays: wedge's default BVH (8-wide with AVX2, leaves
+/// chosen by `leaf`), its 4-wide BVH, the default with obvhs's own leaves, and obvhs's CWBVH.
+fn layouts(leaf: LeafCost) -> [(&'static str, BvhLayout); 4] {
+    [
+        ("wedge default", BvhLayout::Wide(Width::Eight, Some(leaf))),
+        ("wedge 4-wide", BvhLayout::Wide(Width::Four, Some(leaf))),
+        ("wedge, obvhs leaves", BvhLayout::Wide(Width::Eight, None)),
+        ("obvhs CWBVH", BvhLayout::Cwbvh),
+    ]
+}
+
+/// Parses --leaf-cost NODE,MAX.
+fn parse_leaf_cost(s: &str) -> anyhow::Result<LeafCost> {
+    let bad = || anyhow::anyhow!("--leaf-cost {s}: expected NODE,MAX, e.g. 1.5,16 (MAX 1 to 32)");
+    let (node, max) = s.split_once(',').ok_or_else(bad)?;
+    let node: f32 = node.trim().parse().map_err(|_| bad())?;
+    let max_triangles: usize = max.trim().parse().map_err(|_| bad())?;
+    anyhow::ensure!(node.is_finite() && node >= 0.0 && (1..=32).contains(&max_triangles), bad());
+    Ok(LeafCost { node, max_triangles })
+}
 
 pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     let Some(what) = a.what else { return convergence(a.convergence) };
     println!("Machine: {}\n", machine_description());
     match what {
-        BenchKind::Rays { scene, terrain_triangles, width, height, spp, repeats, bvh, dump } => {
+        BenchKind::Rays { scene, terrain_triangles, width, height, spp, repeats, bvh, dump, leaf_cost } => {
+            let layouts = layouts(parse_leaf_cost(&leaf_cost)?);
             let quality = match bvh.as_str() {
                 "fast" => BvhQuality::Fast,
                 "medium" => BvhQuality::Medium,
@@ -144,19 +163,20 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             scenes.push(("terrain".to_string(), rays::terrain_builder(terrain_triangles, width, height)));
             let mut ratios = Vec::new();
             for (name, builder) in scenes {
-                // The same tree traced by wedge's wide BVH (8-wide where the CPU has AVX2, and
-                // 4-wide) and by obvhs's CWBVH, on the same rays.
-                let layouts = LAYOUTS.map(|(_, layout)| {
+                // The same triangles traced by wedge's wide BVH (8-wide where the CPU has AVX2,
+                // and 4-wide; with its own leaves and with obvhs's) and by obvhs's CWBVH, on the
+                // same rays.
+                let built = layouts.map(|(_, layout)| {
                     let mut b = builder.clone();
                     (b.bvh_quality, b.bvh_layout) = (quality, layout);
                     b.build()
                 });
-                let s = &layouts[0];
+                let s = &built[0];
                 let sets = rays::make_rays(s, spp);
-                let mut results = LAYOUTS.map(|_| serde_json::Map::new());
+                let mut results = layouts.map(|_| serde_json::Map::new());
                 for set in &sets {
-                    let mut one_thread = [0.0; 3];
-                    for (k, ((layout, _), scene)) in LAYOUTS.iter().zip(&layouts).enumerate() {
+                    let mut one_thread = [0.0; 4];
+                    for (k, ((layout, _), scene)) in layouts.iter().zip(&built).enumerate() {
                         let (r1, hits) = rays::measure(scene, set, 1, repeats)?;
                         let (r2, _) = rays::measure(scene, set, 2, repeats)?;
                         one_thread[k] = r1;
@@ -174,19 +194,23 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
                         );
                     }
                     ratios.push(format!(
-                        "| {name} | {} | {:.2} | {:.2} |",
+                        "| {name} | {} | {:.2} | {:.2} | {:.2} |",
                         set.kind.name(),
-                        one_thread[0] / one_thread[2],
-                        one_thread[1] / one_thread[2]
+                        one_thread[0] / one_thread[3],
+                        one_thread[1] / one_thread[3],
+                        one_thread[0] / one_thread[2]
                     ));
                 }
-                let [results, four, cwbvh] = results;
+                let [results, four, obvhs_leaves, cwbvh] = results;
                 if let Some(dir) = &dump {
-                    let meta = serde_json::json!({"scene": name, "triangles": s.triangle_count(), "wedge": results, "wedge_4_wide": four, "cwbvh": cwbvh});
+                    let meta = serde_json::json!({"scene": name, "triangles": s.triangle_count(), "leaf_cost": leaf_cost,
+                        "wedge": results, "wedge_4_wide": four, "wedge_obvhs_leaves": obvhs_leaves, "cwbvh": cwbvh});
                     rays::dump(&dir.join(&name), s, &sets, &meta)?;
                 }
             }
-            println!("\n| scene | kind | wedge default / CWBVH (1 thread) | wedge 4-wide / CWBVH |\n|---|---|---|---|");
+            println!(
+                "\n| scene | kind | wedge default / CWBVH (1 thread) | wedge 4-wide / CWBVH | wedge default / obvhs leaves |\n|---|---|---|---|---|"
+            );
             for r in ratios {
                 println!("{r}");
             }

@@ -3,7 +3,7 @@
 //! The tree is built by obvhs. It is traced either as wedge's own wide BVH (`super::wide_bvh`, the
 //! default: 8 children per node on CPUs with AVX2, else 4) or as obvhs's compressed 8-wide BVH,
 //! kept so that the ray benchmark can compare them on the same rays.
-use super::wide_bvh::{WideBvh, Width};
+use super::wide_bvh::{LeafCost, WideBvh, Width};
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::{
     bvh2::builder::build_bvh2_from_tris,
@@ -51,10 +51,12 @@ impl BvhQuality {
 }
 
 /// How the built tree is laid out and traced.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum BvhLayout {
-    /// wedge's wide BVH with vector box and triangle tests (`super::wide_bvh`).
-    Wide(Width),
+    /// wedge's wide BVH with vector box and triangle tests (`super::wide_bvh`), with leaves
+    /// chosen by the block-aware SAH (`LeafCost`), or None: obvhs's own leaves of up to 8
+    /// triangles (kept for the ray benchmark's comparison).
+    Wide(Width, Option<LeafCost>),
     /// obvhs's compressed 8-wide BVH and its traversal.
     Cwbvh,
 }
@@ -62,7 +64,7 @@ pub enum BvhLayout {
 impl Default for BvhLayout {
     /// The widest BVH this CPU traces fast.
     fn default() -> Self {
-        BvhLayout::Wide(Width::best())
+        BvhLayout::Wide(Width::best(), Some(LeafCost::default()))
     }
 }
 
@@ -140,14 +142,16 @@ impl GeometryBuilder {
             self.positions.iter().map(|p| Triangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() }).collect();
         let mut build_time = Duration::ZERO;
         let (accel, slots) = match layout {
-            BvhLayout::Wide(width) => {
-                // Leaves of at most eight triangles (two 4-lane blocks): measured faster than four
-                // on the 1M-triangle terrain (BENCHMARKS.md).
-                let params = BvhBuildParams { max_prims_per_leaf: 8, ..quality.params() };
+            BvhLayout::Wide(width, leaves) => {
+                // With a LeafCost, obvhs builds a binary tree down to single triangles, and the
+                // collapse to the wide tree picks the leaves.
+                let max_prims_per_leaf = if leaves.is_some() { 1 } else { 8 };
+                let params = BvhBuildParams { max_prims_per_leaf, ..quality.params() };
                 let bvh2 = build_bvh2_from_tris(&input, params, &mut build_time);
                 let slot_tris: Vec<[Vec3; 3]> =
                     bvh2.primitive_indices.iter().map(|&i| self.positions[i as usize]).collect();
-                (Accel::Wide(WideBvh::from_bvh2(&bvh2, &slot_tris, width)), bvh2.primitive_indices)
+                let w = WideBvh::from_bvh2(&bvh2, &slot_tris, width, leaves);
+                (Accel::Wide(w), bvh2.primitive_indices)
             }
             BvhLayout::Cwbvh => {
                 let bvh = build_cwbvh_from_tris(&input, quality.params(), &mut build_time);
@@ -318,7 +322,14 @@ mod tests {
     /// triangle sits in several leaves).
     fn every_build(b: &GeometryBuilder) -> Vec<(String, Geometry)> {
         let mut out = Vec::new();
-        for layout in [BvhLayout::Wide(Width::Eight), BvhLayout::Wide(Width::Four), BvhLayout::Cwbvh] {
+        let sah = Some(LeafCost::default());
+        let layouts = [
+            BvhLayout::Wide(Width::Eight, sah),
+            BvhLayout::Wide(Width::Four, sah),
+            BvhLayout::Wide(Width::Eight, None),
+            BvhLayout::Cwbvh,
+        ];
+        for layout in layouts {
             for quality in [BvhQuality::Fast, BvhQuality::Medium, BvhQuality::Slow] {
                 out.push((format!("{layout:?} {quality:?}"), b.clone().build(quality, layout)));
             }

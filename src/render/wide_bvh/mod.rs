@@ -1,7 +1,8 @@
 //! A wide BVH (4 or 8 children per node) traced one ray at a time with vector box and triangle
 //! tests, as Embree traces single rays.
 //!
-//! obvhs builds the tree (a binary BVH: PLOC, reinsertion, SAH leaf collapse); this module
+//! obvhs builds the tree (a binary BVH: PLOC and reinsertion, down to single triangles); this
+//! module chooses its leaves (`LeafCost`: the surface area heuristic counting 4-triangle blocks),
 //! collapses it to 8 children per node where the CPU has AVX2 and FMA (checked at run time, so
 //! the portable binary uses them too) and to 4 otherwise (SSE, part of every x86-64, or plain
 //! code elsewhere), and packs each leaf's triangles into 4-lane `Tri4` blocks. One vector slab
@@ -87,11 +88,12 @@ struct Entry {
 
 impl WideBvh {
     /// Collapses `bvh2` (built over triangles whose slot `i` has vertices `slot_tris[i]`) to
-    /// `width` children per node. `Width::Eight` on a CPU without AVX2 and FMA (or not x86-64)
-    /// falls back to four.
-    pub fn from_bvh2(bvh2: &Bvh2, slot_tris: &[[Vec3; 3]], width: Width) -> Self {
+    /// `width` children per node, with leaves chosen by `leaves` (None: `bvh2`'s own leaves).
+    /// `Width::Eight` on a CPU without AVX2 and FMA (or not x86-64) falls back to four.
+    pub fn from_bvh2(bvh2: &Bvh2, slot_tris: &[[Vec3; 3]], width: Width, leaves: Option<LeafCost>) -> Self {
         let width = if width == Width::Eight && Width::best() == Width::Eight { width } else { Width::Four };
         let w = width.children();
+        let is_leaf = leaf_subtrees(bvh2, leaves);
         let mut blocks = Vec::new();
         let mut nodes: Vec<NodeArrays> = Vec::new();
         // Unused lanes keep an empty box (min +inf, max -inf), which no ray enters.
@@ -104,7 +106,7 @@ impl WideBvh {
         let root = match bvh2.nodes.first() {
             _ if slot_tris.is_empty() => NO_CHILD,
             None => NO_CHILD,
-            Some(r) if r.prim_count > 0 => leaf(&mut blocks, r.first_index as usize, r.prim_count as usize, slot_tris),
+            Some(_) if is_leaf[0] => leaf(&mut blocks, &subtree_slots(bvh2, 0), slot_tris),
             Some(_) => {
                 nodes.push(empty);
                 todo.push((0, 0, 0));
@@ -113,10 +115,10 @@ impl WideBvh {
         };
         while let Some((n, index, level)) = todo.pop() {
             depth = depth.max(level);
-            for (lane, k) in open_up_to(bvh2, n, w).into_iter().enumerate() {
+            for (lane, k) in open_up_to(bvh2, &is_leaf, n, w).into_iter().enumerate() {
                 let kid = &bvh2.nodes[k];
-                let reference = if kid.prim_count > 0 {
-                    leaf(&mut blocks, kid.first_index as usize, kid.prim_count as usize, slot_tris)
+                let reference = if is_leaf[k] {
+                    leaf(&mut blocks, &subtree_slots(bvh2, k), slot_tris)
                 } else {
                     nodes.push(empty);
                     todo.push((k, nodes.len() - 1, level + 1));
@@ -353,30 +355,113 @@ impl Query<'_> {
     }
 }
 
-/// Packs the slots first..first + count into blocks of four; returns the leaf reference.
-fn leaf(blocks: &mut Vec<Tri4>, first: usize, count: usize, slot_tris: &[[Vec3; 3]]) -> u32 {
+/// Packs the triangles of `slots` into blocks of four; returns the leaf reference.
+fn leaf(blocks: &mut Vec<Tri4>, slots: &[u32], slot_tris: &[[Vec3; 3]]) -> u32 {
     let start = blocks.len();
-    let lanes: Vec<([Vec3; 3], u32)> = (first..first + count).map(|s| (slot_tris[s], s as u32)).collect();
+    let lanes: Vec<([Vec3; 3], u32)> = slots.iter().map(|&s| (slot_tris[s as usize], s)).collect();
     for chunk in lanes.chunks(4) {
         blocks.push(Tri4::new(chunk));
     }
     let n = blocks.len() - start;
-    assert!(n <= MAX_LEAF_BLOCKS, "a leaf of {count} triangles exceeds {MAX_LEAF_BLOCKS} blocks");
+    assert!(n <= MAX_LEAF_BLOCKS, "a leaf of {} triangles exceeds {MAX_LEAF_BLOCKS} blocks", slots.len());
     assert!(start < 1 << 28, "too many triangle blocks for a 28-bit index");
     LEAF | (start as u32) << 3 | (n as u32 - 1)
+}
+
+/// Which subtrees of the binary tree become leaves of the wide one.
+///
+/// The surface area heuristic with leaf costs counted in 4-triangle blocks, as Embree's wide
+/// builders count them: a leaf of 5 triangles costs two block tests, as one of 8 does. obvhs's
+/// own leaf collapse (a binary tree's: cost proportional to the triangle count, and only where
+/// both children are already leaves) leaves many blocks part-empty.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LeafCost {
+    /// Cost of one binary node's box test in the wide tree, relative to one block test.
+    pub node: f32,
+    /// Largest leaf, in triangles (at most 4 * 8).
+    pub max_triangles: usize,
+}
+
+impl Default for LeafCost {
+    /// The fastest of node costs 0.25 to 3 and leaves of 8 to 32 triangles on the 1M-triangle
+    /// terrain (BENCHMARKS.md, "Ray throughput"): 11-13% more rays per second than obvhs's leaves
+    /// of up to 8 triangles, for primary, shadow and bounce rays alike.
+    fn default() -> Self {
+        LeafCost { node: 1.5, max_triangles: 16 }
+    }
+}
+
+/// Per bvh2 node: whether its subtree becomes one leaf. Bottom-up dynamic programming over
+/// SAH(n) = min(A(n) * blocks(n), A(n) * node + SAH(left) + SAH(right)); bvh2 leaves stay
+/// leaves. `None` keeps obvhs's leaves as they are.
+fn leaf_subtrees(bvh2: &Bvh2, cost: Option<LeafCost>) -> Vec<bool> {
+    let nodes = &bvh2.nodes;
+    let mut is_leaf: Vec<bool> = nodes.iter().map(|n| n.prim_count > 0).collect();
+    let Some(cost) = cost else { return is_leaf };
+    let max = cost.max_triangles.min(4 * MAX_LEAF_BLOCKS);
+    // Parents before children, then reversed.
+    let mut order = Vec::with_capacity(nodes.len());
+    let mut todo = if nodes.is_empty() { vec![] } else { vec![0usize] };
+    while let Some(i) = todo.pop() {
+        order.push(i);
+        if nodes[i].prim_count == 0 {
+            let first = nodes[i].first_index as usize;
+            todo.extend([first, first + 1]);
+        }
+    }
+    let blocks = |count: usize| count.div_ceil(4) as f32;
+    let mut count = vec![0usize; nodes.len()];
+    let mut sah = vec![0.0f32; nodes.len()];
+    for &i in order.iter().rev() {
+        let area = nodes[i].aabb.half_area();
+        if nodes[i].prim_count > 0 {
+            count[i] = nodes[i].prim_count as usize;
+            sah[i] = area * blocks(count[i]);
+            continue;
+        }
+        let first = nodes[i].first_index as usize;
+        count[i] = count[first] + count[first + 1];
+        let split = area * cost.node + sah[first] + sah[first + 1];
+        let whole = area * blocks(count[i]);
+        is_leaf[i] = count[i] <= max && whole <= split;
+        sah[i] = if is_leaf[i] { whole } else { split };
+    }
+    is_leaf
+}
+
+/// The slots of the triangles under bvh2 node `n`, each triangle once (spatial splits can put a
+/// triangle in several leaves of one subtree).
+fn subtree_slots(bvh2: &Bvh2, n: usize) -> Vec<u32> {
+    let mut slots: Vec<u32> = Vec::new();
+    let mut todo = vec![n];
+    while let Some(i) = todo.pop() {
+        let node = &bvh2.nodes[i];
+        let first = node.first_index as usize;
+        if node.prim_count > 0 {
+            for s in first..first + node.prim_count as usize {
+                let prim = bvh2.primitive_indices[s];
+                if !slots.iter().any(|&o| bvh2.primitive_indices[o as usize] == prim) {
+                    slots.push(s as u32);
+                }
+            }
+        } else {
+            todo.extend([first + 1, first]);
+        }
+    }
+    slots
 }
 
 /// The bvh2 nodes that become the children of bvh2 node `n` in a `w`-wide tree: starting from
 /// its two children, the inner child of largest surface area is replaced by its own two children
 /// until there are `w` (SAH-style collapse, as Embree's wide BVH builders open nodes).
-fn open_up_to(bvh2: &Bvh2, n: usize, w: usize) -> Vec<usize> {
+fn open_up_to(bvh2: &Bvh2, is_leaf: &[bool], n: usize, w: usize) -> Vec<usize> {
     let first = bvh2.nodes[n].first_index as usize;
     let mut kids = vec![first, first + 1];
     while kids.len() < w {
         let widest = kids
             .iter()
             .enumerate()
-            .filter(|(_, &k)| bvh2.nodes[k].prim_count == 0)
+            .filter(|(_, &k)| !is_leaf[k])
             .max_by(|a, b| bvh2.nodes[*a.1].aabb.half_area().total_cmp(&bvh2.nodes[*b.1].aabb.half_area()));
         let Some((i, &k)) = widest else { break };
         let f = bvh2.nodes[k].first_index as usize;

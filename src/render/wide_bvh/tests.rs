@@ -13,17 +13,32 @@ fn widths() -> Vec<Width> {
     }
 }
 
-/// Builds the tree over `tris` with obvhs leaves of at most `leaf` triangles; returns it with the
-/// triangles in slot order.
-fn build(tris: &[[Vec3; 3]], leaf: u32, pre_split: bool, width: Width) -> (WideBvh, Vec<[Vec3; 3]>) {
+/// obvhs's binary tree over `tris`, with leaves of at most `leaf` triangles.
+fn bvh2(tris: &[[Vec3; 3]], leaf: u32, pre_split: bool) -> Bvh2 {
     let input: Vec<Triangle> =
         tris.iter().map(|p| Triangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() }).collect();
     let params = BvhBuildParams { max_prims_per_leaf: leaf, pre_split, ..BvhBuildParams::medium_build() };
-    let bvh2 = build_bvh2_from_tris(&input, params, &mut Duration::default());
+    build_bvh2_from_tris(&input, params, &mut Duration::default())
+}
+
+/// Builds the tree over `tris` with obvhs leaves of at most `leaf` triangles (kept as they are
+/// when `leaves` is None); returns it with the triangles in slot order.
+fn build_with(
+    tris: &[[Vec3; 3]],
+    leaf: u32,
+    pre_split: bool,
+    width: Width,
+    leaves: Option<LeafCost>,
+) -> (WideBvh, Vec<[Vec3; 3]>) {
+    let bvh2 = bvh2(tris, leaf, pre_split);
     let slots: Vec<[Vec3; 3]> = bvh2.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
-    let bvh = WideBvh::from_bvh2(&bvh2, &slots, width);
+    let bvh = WideBvh::from_bvh2(&bvh2, &slots, width, leaves);
     assert_eq!(bvh.width(), width);
     (bvh, slots)
+}
+
+fn build(tris: &[[Vec3; 3]], leaf: u32, pre_split: bool, width: Width) -> (WideBvh, Vec<[Vec3; 3]>) {
+    build_with(tris, leaf, pre_split, width, None)
 }
 
 /// Closest t over all triangles by brute force, with obvhs's triangle test.
@@ -188,5 +203,102 @@ fn rays_on_a_flat_grid_lose_no_hit_at_box_boundaries() {
         let (bvh, slots) = build(&tris, 4, false, width);
         let hits = check(&bvh, &slots, &tris, &rays);
         assert!(hits > 3000, "{width:?}: {hits} hits");
+    }
+}
+
+/// The cost `leaf_subtrees` minimises, for any choice of leaves: A * node per inner node above
+/// the leaves, A * blocks per leaf.
+fn cut_cost(bvh2: &Bvh2, is_leaf: &[bool], cost: LeafCost) -> f32 {
+    let mut total = 0.0;
+    let mut todo = vec![0usize];
+    while let Some(i) = todo.pop() {
+        let area = bvh2.nodes[i].aabb.half_area();
+        if is_leaf[i] {
+            total += area * subtree_slots(bvh2, i).len().div_ceil(4) as f32;
+        } else {
+            total += area * cost.node;
+            let first = bvh2.nodes[i].first_index as usize;
+            todo.extend([first, first + 1]);
+        }
+    }
+    total
+}
+
+#[test]
+fn chosen_leaves_cover_every_triangle_once_and_cost_no_more_than_other_choices() {
+    let mut rng = Rng(0x5eed_1eaf);
+    let tris = soup(&mut rng, 600);
+    let tree = bvh2(&tris, 1, false);
+    for cost in
+        [LeafCost { node: 0.5, max_triangles: 8 }, LeafCost::default(), LeafCost { node: 4.0, max_triangles: 32 }]
+    {
+        let chosen = leaf_subtrees(&tree, Some(cost));
+        // The leaves (the chosen nodes with no chosen ancestor) partition the triangles.
+        let mut seen = vec![0; tree.primitive_indices.len()];
+        let mut todo = vec![0usize];
+        while let Some(i) = todo.pop() {
+            if chosen[i] {
+                let slots = subtree_slots(&tree, i);
+                assert!(slots.len() <= cost.max_triangles, "{cost:?}: a leaf of {}", slots.len());
+                slots.iter().for_each(|&s| seen[s as usize] += 1);
+            } else {
+                let first = tree.nodes[i].first_index as usize;
+                todo.extend([first, first + 1]);
+            }
+        }
+        assert!(seen.iter().all(|&n| n == 1), "{cost:?}");
+        // Optimal among the tree's cuts: no cheaper than the binary tree's own leaves, nor than
+        // random cuts (each node made a leaf with some probability where it fits).
+        let best = cut_cost(&tree, &chosen, cost);
+        let singles: Vec<bool> = tree.nodes.iter().map(|n| n.prim_count > 0).collect();
+        assert!(best <= cut_cost(&tree, &singles, cost) * (1.0 + 1e-5), "{cost:?}");
+        let single_cost = cut_cost(&tree, &singles, cost);
+        assert!(best < single_cost * 0.99, "{cost:?}: merging leaves should pay: {best} vs {single_cost}");
+        for _ in 0..50 {
+            let p = rng.f();
+            let random: Vec<bool> = (0..tree.nodes.len())
+                .map(|i| {
+                    let n = subtree_slots(&tree, i).len();
+                    tree.nodes[i].prim_count > 0 || (n <= cost.max_triangles && rng.f() < p)
+                })
+                .collect();
+            assert!(best <= cut_cost(&tree, &random, cost) * (1.0 + 1e-5), "{cost:?}, p {p}");
+        }
+    }
+}
+
+#[test]
+fn queries_equal_brute_force_with_chosen_leaves() {
+    let mut rng = Rng(0x00dd_ba11);
+    let tris = soup(&mut rng, 1500);
+    let rays = random_rays(&mut rng, 1500);
+    for width in widths() {
+        // Up to 32 triangles (eight blocks, the most a leaf reference counts), and the default.
+        for cost in [LeafCost { node: 100.0, max_triangles: 32 }, LeafCost::default()] {
+            let (bvh, slots) = build_with(&tris, 1, false, width, Some(cost));
+            let hits = check(&bvh, &slots, &tris, &rays);
+            assert!(hits > 150, "{width:?} {cost:?}: {hits}");
+        }
+        // With spatial splits a subtree can hold pieces of one triangle in several of its
+        // leaves; a wide leaf gathered from it holds the triangle once.
+        let mut long = soup(&mut rng, 300);
+        for _ in 0..8 {
+            let (c, e) = (rng.v(), Vec3::new(4.0, 4.0 * rng.f(), -4.0));
+            long.push([c - e, c + e, c + e + rng.v() * 0.3]);
+        }
+        let tree = bvh2(&long, 1, true);
+        assert!(tree.primitive_indices.len() > long.len(), "no triangle was split");
+        let mut prims: Vec<u32> = subtree_slots(&tree, 0).iter().map(|&s| tree.primitive_indices[s as usize]).collect();
+        prims.sort();
+        assert_eq!(prims, (0..long.len() as u32).collect::<Vec<_>>());
+        let (bvh, _) = build_with(&long, 1, true, width, Some(LeafCost { node: 100.0, max_triangles: 32 }));
+        let mut hits = 0;
+        for (o, d, tmax) in aimed_rays(&mut rng, &long, 600) {
+            let expect = brute(&long, o, d, tmax);
+            assert_eq!(bvh.intersect(o, d, 0.0, tmax).map(|h| h.t), expect, "{width:?} pre-split");
+            assert_eq!(bvh.occluded(o, d, 0.0, tmax), expect.is_some());
+            hits += expect.is_some() as usize;
+        }
+        assert!(hits > 150, "{width:?} pre-split: {hits}");
     }
 }
