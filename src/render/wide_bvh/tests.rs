@@ -103,6 +103,17 @@ fn soup(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
         .collect()
 }
 
+/// `n` small triangles and 8 long diagonal ones, which pre-splitting cuts into several leaves
+/// (it splits triangles whose boxes are far larger than the average and mostly empty).
+fn soup_with_long_triangles(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
+    let mut tris = soup(rng, n);
+    for _ in 0..8 {
+        let (c, e) = (rng.v(), Vec3::new(4.0, 4.0 * rng.f(), -4.0));
+        tris.push([c - e, c + e, c + e + rng.v() * 0.3]);
+    }
+    tris
+}
+
 #[test]
 fn queries_equal_brute_force_for_leaf_sizes_of_one_to_several_blocks() {
     let mut rng = Rng(0x1234_5678);
@@ -120,13 +131,7 @@ fn queries_equal_brute_force_for_leaf_sizes_of_one_to_several_blocks() {
 #[test]
 fn spatial_splits_put_a_triangle_in_several_leaves_and_hits_stay_exact() {
     let mut rng = Rng(0x0bad_cafe);
-    // Small triangles and a few long diagonal ones, which pre-splitting cuts into several leaves
-    // (it splits triangles whose boxes are far larger than the average and mostly empty).
-    let mut tris = soup(&mut rng, 400);
-    for _ in 0..8 {
-        let (c, e) = (rng.v(), Vec3::new(4.0, 4.0 * rng.f(), -4.0));
-        tris.push([c - e, c + e, c + e + rng.v() * 0.3]);
-    }
+    let tris = soup_with_long_triangles(&mut rng, 400);
     let rays = aimed_rays(&mut rng, &tris, 1000);
     for width in widths() {
         let (bvh, slots) = build(&tris, 4, true, width);
@@ -281,11 +286,7 @@ fn queries_equal_brute_force_with_chosen_leaves() {
         }
         // With spatial splits a subtree can hold pieces of one triangle in several of its
         // leaves; a wide leaf gathered from it holds the triangle once.
-        let mut long = soup(&mut rng, 300);
-        for _ in 0..8 {
-            let (c, e) = (rng.v(), Vec3::new(4.0, 4.0 * rng.f(), -4.0));
-            long.push([c - e, c + e, c + e + rng.v() * 0.3]);
-        }
+        let long = soup_with_long_triangles(&mut rng, 300);
         let tree = bvh2(&long, 1, true);
         assert!(tree.primitive_indices.len() > long.len(), "no triangle was split");
         let mut prims: Vec<u32> = subtree_slots(&tree, 0).iter().map(|&s| tree.primitive_indices[s as usize]).collect();
