@@ -160,6 +160,27 @@ struct Target {
     r: u32,
 }
 
+/// A pixel-light's slopes s1 >= s2, if it has any, in f32: the fill writes one per pixel and
+/// light, and f32's 7 digits are far finer than the slopes' own accuracy (9 rays).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Slopes {
+    /// NaN when there are none.
+    s1: f32,
+    s2: f32,
+}
+
+impl Slopes {
+    const NONE: Slopes = Slopes { s1: f32::NAN, s2: f32::NAN };
+
+    fn new(s1: f64, s2: f64) -> Self {
+        Slopes { s1: s1 as f32, s2: s2 as f32 }
+    }
+
+    fn get(self) -> Option<(f64, f64)> {
+        (!self.s1.is_nan()).then_some((self.s1 as f64, self.s2 as f64))
+    }
+}
+
 /// Slopes no larger than this keep averages and products finite (s -> inf means an occluder
 /// at the light, where every formula has already saturated).
 const MAX_SLOPE: f64 = 1e9;
@@ -178,7 +199,7 @@ pub struct ShadowStrategy {
     sums: Vec<LightSums>,
     other: Vec<OtherSums>,
     /// Slopes each pixel-light is filtered and sampled with (own or filled in), if any.
-    slopes: Vec<Option<(f64, f64)>>,
+    slopes: Vec<Slopes>,
     /// Projected pixel size per pixel.
     d: Vec<f64>,
     rays: u64,
@@ -232,7 +253,7 @@ impl ShadowStrategy {
         let n = self.width * self.height;
         self.sums = vec![LightSums::default(); n * self.lights.len()];
         self.other = vec![OtherSums::default(); n];
-        self.slopes = vec![None; n * self.lights.len()];
+        self.slopes = vec![Slopes::NONE; n * self.lights.len()];
         // The surfaces are the filter's own work: they count in the method's seconds.
         let t = Instant::now();
         if self.mode != FilterMode::Adaptive {
@@ -315,7 +336,7 @@ impl ShadowStrategy {
                         let mu = self.mu(pass) * light.mu_scale;
                         let cap = (self.opts.cap * mu * mu).max(sparse as f64);
                         let floor = self.floor(pass).max(antialias.map_or(0, |t| self.antialias_count(k, t, cap)));
-                        let n = match self.slopes[k] {
+                        let n = match self.slopes[k].get() {
                             None => floor,
                             Some((s1, s2)) => {
                                 let g = PixelGeometry { s1, s2, sigma: light.sigma, d: self.d[pixel] };
@@ -382,58 +403,66 @@ impl ShadowStrategy {
 
     /// Slopes for every pixel-light: its own from the sparse pass, or the mean of occluded
     /// pixels within `fill_radius` for pixels whose sparse rays saw no occluder (Sec. 6). The
-    /// disc sums come from per-row prefix sums: one span per row of the disc.
+    /// disc sums come from per-row prefix sums, one span per row of the disc. Bands of rows
+    /// run in parallel, each with the prefix sums of its own rows and the `fill_radius` rows
+    /// around them: a band's prefix sums stay in cache, and no image-sized buffer is
+    /// allocated besides the result (fresh pages cost more than this pass's arithmetic).
     fn fill_slopes(&mut self) {
+        const BAND: usize = 32;
         let (w, h, nl) = (self.width, self.height, self.lights.len());
-        let r = self.opts.fill_radius as i64;
+        let Some(g) = self.gbuffer.as_ref() else { return };
+        if w == 0 || nl == 0 {
+            return;
+        }
+        let r = self.opts.fill_radius as usize;
+        let half_widths: Vec<usize> = (0..=r).map(|dy| ((r * r - dy * dy) as f64).sqrt().floor() as usize).collect();
         let sums = &self.sums;
-        // prefix[l][y * (w + 1) + x] = (count, sum s1, sum s2) of occluded pixels left of x.
-        let prefix: Vec<Vec<(u32, f64, f64)>> = (0..nl)
-            .map(|l| {
-                let mut p = vec![(0u32, 0.0, 0.0); h * (w + 1)];
-                p.par_chunks_mut(w + 1).enumerate().for_each(|(y, row)| {
-                    for x in 0..w {
-                        let q = &sums[(y * w + x) * nl + l];
-                        let (c, a, b) = row[x];
-                        row[x + 1] = if q.occluded {
-                            (c + 1, a + q.s1.min(MAX_SLOPE), b + q.s2.min(MAX_SLOPE))
-                        } else {
-                            (c, a, b)
-                        };
-                    }
-                });
-                p
-            })
-            .collect();
-        let half_widths: Vec<i64> = (-r..=r).map(|dy| ((r * r - dy * dy) as f64).sqrt().floor() as i64).collect();
-        let valid = |p: usize| self.gbuffer.as_ref().is_some_and(|g| g.pixels[p].is_valid());
-        self.slopes = (0..sums.len())
-            .into_par_iter()
-            .map(|k| {
-                let (p, l) = (k / nl, k % nl);
-                if !valid(p) {
-                    return None;
+        let mut slopes = vec![Slopes::NONE; w * h * nl];
+        slopes.par_chunks_mut(BAND * w * nl).enumerate().for_each_init(Vec::new, |prefix, (band, out)| {
+            let (y0, y1) = (band * BAND, (band * BAND + BAND).min(h));
+            let p0 = y0.saturating_sub(r);
+            // prefix[((y - p0) * nl + l) * (w + 1) + x] = (count, sum s1, sum s2) of the
+            // pixels of row y left of x whose own rays saw an occluder of light l.
+            prefix.clear();
+            prefix.resize(((y1 + r).min(h) - p0) * nl * (w + 1), [0.0f64; 3]);
+            for (i, row) in prefix.chunks_mut(w + 1).enumerate() {
+                let (y, l) = (p0 + i / nl, i % nl);
+                for x in 0..w {
+                    let q = &sums[(y * w + x) * nl + l];
+                    let [c, a, b] = row[x];
+                    row[x + 1] = if q.occluded {
+                        [c + 1.0, a + q.s1.min(MAX_SLOPE), b + q.s2.min(MAX_SLOPE)]
+                    } else {
+                        [c, a, b]
+                    };
                 }
-                let own = &sums[k];
-                if own.occluded {
-                    return Some((own.s1.min(MAX_SLOPE), own.s2.min(MAX_SLOPE)));
+            }
+            let span = |y: usize, l: usize| &prefix[((y - p0) * nl + l) * (w + 1)..][..w + 1];
+            for (i, out) in out.iter_mut().enumerate() {
+                let (y, x, l) = (y0 + i / (w * nl), (i / nl) % w, i % nl);
+                if !g.pixels[y * w + x].is_valid() {
+                    continue;
                 }
-                let (x, y) = ((p % w) as i64, (p / w) as i64);
-                let (mut count, mut s1, mut s2) = (0u32, 0.0, 0.0);
-                for (dy, &hw) in (-r..=r).zip(&half_widths) {
-                    let ny = y + dy;
-                    if ny < 0 || ny >= h as i64 {
-                        continue;
-                    }
-                    let row = &prefix[l][ny as usize * (w + 1)..(ny as usize + 1) * (w + 1)];
-                    let (lo, hi) = ((x - hw).max(0) as usize, ((x + hw + 1) as usize).min(w));
-                    count += row[hi].0 - row[lo].0;
-                    s1 += row[hi].1 - row[lo].1;
-                    s2 += row[hi].2 - row[lo].2;
+                let own = span(y, l);
+                if own[x + 1][0] > own[x][0] {
+                    let q = &sums[(y * w + x) * nl + l];
+                    *out = Slopes::new(q.s1.min(MAX_SLOPE), q.s2.min(MAX_SLOPE));
+                    continue;
                 }
-                (count > 0).then(|| (s1 / count as f64, s2 / count as f64))
-            })
-            .collect();
+                let [mut count, mut s1, mut s2] = [0.0; 3];
+                for ny in y.saturating_sub(r)..(y + r + 1).min(h) {
+                    let (row, hw) = (span(ny, l), half_widths[ny.abs_diff(y)]);
+                    let (lo, hi) = (x.saturating_sub(hw), (x + hw + 1).min(w));
+                    count += row[hi][0] - row[lo][0];
+                    s1 += row[hi][1] - row[lo][1];
+                    s2 += row[hi][2] - row[lo][2];
+                }
+                if count > 0.5 {
+                    *out = Slopes::new(s1 / count, s2 / count);
+                }
+            }
+        });
+        self.slopes = slopes;
     }
 
     /// Builds the frame of pass `pass`: filters each light's visibility and composes. Also
@@ -453,28 +482,27 @@ impl ShadowStrategy {
             if let Some(surface) = self.surfaces.get(l) {
                 let t = Instant::now();
                 let mu = self.mu(pass) * light.mu_scale;
-                let kernels: Vec<FilterKernel> = (0..n)
-                    .into_par_iter()
-                    .zip(width_px.par_iter_mut())
-                    .map(|(p, width_px)| {
-                        let valid = g.is_some_and(|g| g.pixels[p].is_valid()) && at(p).b.iter().any(|&b| b > 0.0);
-                        let beta = match (self.mode, self.slopes.get(p * nl + l).copied().flatten()) {
-                            _ if !valid => 0.0,
-                            (FilterMode::UniformFiltered, _) => self.opts.fixed_filter_px * self.d[p],
-                            (_, Some((s1, s2))) => filter_width(
-                                &PixelGeometry { s1, s2, sigma: light.sigma, d: self.d[p] },
-                                &self.opts.constants,
-                                mu,
-                            ),
-                            (_, None) => 0.0,
-                        };
-                        if beta > 0.0 && self.d[p] > 0.0 {
-                            *width_px = width_px.max((beta / self.d[p]) as f32);
-                        }
-                        FilterKernel { valid, beta, d: self.d[p] }
-                    })
-                    .collect();
-                surface.filter(&kernels, &mut vis);
+                let kernel = |p: usize| {
+                    let valid = g.is_some_and(|g| g.pixels[p].is_valid()) && at(p).b.iter().any(|&b| b > 0.0);
+                    let beta = match (self.mode, self.slopes.get(p * nl + l).and_then(|s| s.get())) {
+                        _ if !valid => 0.0,
+                        (FilterMode::UniformFiltered, _) => self.opts.fixed_filter_px * self.d[p],
+                        (_, Some((s1, s2))) => filter_width(
+                            &PixelGeometry { s1, s2, sigma: light.sigma, d: self.d[p] },
+                            &self.opts.constants,
+                            mu,
+                        ),
+                        (_, None) => 0.0,
+                    };
+                    FilterKernel { valid, beta, d: self.d[p] }
+                };
+                surface.filter_by(kernel, &mut vis);
+                width_px.par_iter_mut().enumerate().for_each(|(p, width_px)| {
+                    let k = kernel(p);
+                    if k.beta > 0.0 && k.d > 0.0 {
+                        *width_px = width_px.max((k.beta / k.d) as f32);
+                    }
+                });
                 method_seconds += t.elapsed().as_secs_f64();
             }
             color.par_iter_mut().zip(unfiltered.par_iter_mut()).zip(vis.par_iter()).enumerate().for_each(

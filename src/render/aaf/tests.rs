@@ -379,3 +379,58 @@ fn jittered_samples_compute_r_only_up_to_the_antialiasing_count() {
         assert_eq!(centres, st.sums.iter().all(|s| s.r_n == s.n), "pixel centres: {centres}");
     }
 }
+
+#[test]
+fn the_fill_averages_the_occluded_pixels_within_its_radius() {
+    // Brute force over the disc of every pixel, per light: own slopes where a sparse ray saw
+    // an occluder, else the mean of the occluded pixels within fill_radius, else none. Two
+    // lights, and an image taller than a band of the fill's parallel loop (32 rows), so
+    // that the band edges and the interleaving of lights are both exercised.
+    let scene = shadow_scene(40, 70, 1.0, EmissionProfile::Gaussian, 2, 0.6);
+    let j = job(scene, Method::Aaf, 1, 5);
+    let mut st = ShadowStrategy::new(&j, FilterMode::Aaf);
+    let stop = StopCheck { cancel: CancelToken::new(), deadline: None };
+    st.run_pass(&PassContext { scene: &j.scene, job: &j, pass: 0, stop: &stop }).expect("pass");
+    let (w, h, nl, r) = (st.width as i64, st.height as i64, st.lights.len(), st.opts.fill_radius as i64);
+    let (mut own, mut filled, mut none) = (0, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let p = (y * w + x) as usize;
+            let valid = st.gbuffer.as_ref().unwrap().pixels[p].is_valid();
+            for l in 0..nl {
+                let q = &st.sums[p * nl + l];
+                let expect = if !valid {
+                    None
+                } else if q.occluded {
+                    own += 1;
+                    Some((q.s1, q.s2))
+                } else {
+                    let (mut n, mut s1, mut s2) = (0.0, 0.0, 0.0);
+                    for ny in (y - r).max(0)..=(y + r).min(h - 1) {
+                        for nx in (x - r).max(0)..=(x + r).min(w - 1) {
+                            let o = &st.sums[(ny * w + nx) as usize * nl + l];
+                            if (nx - x).pow(2) + (ny - y).pow(2) <= r * r && o.occluded {
+                                (n, s1, s2) = (n + 1.0, s1 + o.s1, s2 + o.s2);
+                            }
+                        }
+                    }
+                    (n > 0.0).then(|| (s1 / n, s2 / n))
+                };
+                match (st.slopes[p * nl + l].get(), expect) {
+                    (Some(got), Some(want)) => {
+                        filled += usize::from(!q.occluded);
+                        for (g, e) in [(got.0, want.0), (got.1, want.1)] {
+                            assert!(
+                                (g - e).abs() <= 1e-6 * e.abs().max(1e-3),
+                                "({x},{y}) light {l}: {got:?} vs {want:?}"
+                            );
+                        }
+                    }
+                    (None, None) => none += 1,
+                    (got, want) => panic!("({x},{y}) light {l}: {got:?} vs {want:?}"),
+                }
+            }
+        }
+    }
+    assert!(own > 50 && filled > 50 && none > 50, "own {own}, filled {filled}, none {none}");
+}

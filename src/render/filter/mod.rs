@@ -5,12 +5,12 @@
 //! (2012 Eq. 12: offsets along the light normal do not count, third coordinate 0), the world
 //! for indirect light. Neighbours whose normal differs too much (or, as an option, whose object
 //! differs) are left out; the centre always counts with weight 1, so the weights never sum to
-//! zero (methods.md §0.2). Rows are filtered in parallel; the result does not depend on the
-//! thread count.
-mod row_gather;
+//! zero (methods.md §0.2). Blocks of pixels are filtered in parallel; the result does not
+//! depend on the thread count. `gather` holds the vectorised passes and their memory layout.
+mod gather;
 
+use gather::Surface;
 use glam::{DVec3, Vec3};
-use row_gather::{transpose, Kernels, Surface};
 
 /// One pixel as the filter sees it, surface and kernel together: the one-shot form of
 /// `separable` (strategies keep a `FilterSurface` and pass `FilterKernel`s).
@@ -74,17 +74,13 @@ fn radius(k: &FilterKernel, o: &FilterOptions) -> u32 {
 }
 
 /// The surface a filter gathers over: each pixel's position (in the coordinates distances
-/// are measured in), normal and object, laid out for both 1-D passes. It depends only on the
-/// G-buffer, so a strategy builds it once per render (once per light for soft shadows) and
-/// filters every pass and component over it.
+/// are measured in), normal and object. It depends only on the G-buffer, so a strategy builds
+/// it once per render (once per light for soft shadows) and filters every pass and component
+/// over it.
 pub struct FilterSurface {
-    width: usize,
-    height: usize,
+    len: usize,
     options: FilterOptions,
-    rows: Surface,
-    /// The transposed image: the vertical pass gathers along its rows, since walking a column
-    /// directly strides a whole row per tap and its taps would not stay in cache.
-    columns: Surface,
+    surface: Surface,
 }
 
 impl FilterSurface {
@@ -96,29 +92,27 @@ impl FilterSurface {
         point: impl Fn(usize) -> (DVec3, Vec3, u32) + Sync,
     ) -> Self {
         let height = len.checked_div(width).unwrap_or(0);
-        let rows = Surface::new(len, width, options, point);
-        let columns = rows.transposed(height);
-        FilterSurface { width, height, options: *options, rows, columns }
+        FilterSurface { len, options: *options, surface: Surface::new(width, height, options, point) }
     }
 
     /// Filters `values` (one per pixel, row-major) in place with the separable filter and
     /// the pixels' `kernels`. Pixels that are not filtered centres keep their values (they
     /// still feed their neighbours if valid).
     pub fn filter(&self, kernels: &[FilterKernel], values: &mut [[f64; 3]]) {
-        let (w, h, o) = (self.width, self.height, &self.options);
-        assert!(kernels.len() == w * h && values.len() == w * h, "filter: one kernel and one value per pixel");
-        if h == 0 {
-            return;
-        }
-        let rows = Kernels::new(kernels, o);
-        let horizontal = self.rows.gather(&rows, values, o);
-        let vertical = self.columns.gather(&rows.transposed(w, h), &transpose(&horizontal, w, h), o);
-        values.copy_from_slice(&transpose(&vertical, h, w));
+        assert!(kernels.len() == self.len, "filter: one kernel per pixel");
+        self.filter_by(|p| kernels[p], values);
+    }
+
+    /// `filter` with pixel p's kernel given by `kernel(p)`, so that no per-pixel list of
+    /// kernels need be built (each is read once).
+    pub fn filter_by(&self, kernel: impl Fn(usize) -> FilterKernel + Sync, values: &mut [[f64; 3]]) {
+        assert!(values.len() == self.len, "filter: one value per pixel");
+        self.surface.filter(kernel, values, &self.options);
     }
 }
 
 /// Weight of neighbour `j` for centre `c` (Eq. 11, unnormalised; the gather normalises) in
-/// f64 with libm's exp: the reference that `row_gather` computes in f32 lanes.
+/// f64 with libm's exp: the reference that `gather` computes in f32 lanes.
 #[cfg(test)]
 fn weight(c: &FilterPixel, j: &FilterPixel, cos_min: f32, o: &FilterOptions) -> f64 {
     if !j.valid || c.normal.dot(j.normal) < cos_min || (o.object_id_check && c.object != j.object) {
@@ -130,7 +124,7 @@ fn weight(c: &FilterPixel, j: &FilterPixel, cos_min: f32, o: &FilterOptions) -> 
         d2 = (d2 - delta.dot(c.normal.as_dvec3()).powi(2)).max(0.0);
     }
     let x = d2 / (2.0 * c.beta * c.beta);
-    if x > row_gather::EXP_CUTOFF {
+    if x > gather::EXP_CUTOFF {
         0.0
     } else {
         (-x).exp()
@@ -212,9 +206,8 @@ mod tests {
 
     #[test]
     fn separable_equals_2d_for_constant_beta() {
-        // The second image is not square, has radius 6 and more taps than a chunk of lanes: the
-        // vertical pass runs on the transposed image, so an index mix-up or a lane past a
-        // row's end would show there.
+        // The second image is not square, has radius 6 and more taps than a block of lanes,
+        // and rows that end mid-block: an index mix-up or a padding lane would show there.
         for (w, h, beta_px) in [(23, 17, 1.7), (75, 41, 2.0)] {
             let px = plane(w, h, 0.01, beta_px);
             let v = noise(w * h);
@@ -239,18 +232,70 @@ mod tests {
         }
     }
 
+    /// The separable filter written out in f64, pixel by pixel: a horizontal gather with each
+    /// pixel's own kernel, then a vertical gather of its results with the centre's kernel
+    /// (Mehta et al. 2012, Sec. 6), the centre counted with weight 1 in both.
+    fn two_pass_reference(pixels: &[FilterPixel], values: &[[f64; 3]], w: usize, o: &FilterOptions) -> Vec<[f64; 3]> {
+        let h = pixels.len() / w;
+        let cos_min = o.max_normal_angle_deg.to_radians().cos();
+        let pass = |input: &[[f64; 3]], horizontal: bool| -> Vec<[f64; 3]> {
+            (0..w * h)
+                .map(|i| {
+                    let r = radius(&pixels[i].kernel(), o) as i64;
+                    if r == 0 {
+                        return input[i];
+                    }
+                    let (x, y) = ((i % w) as i64, (i / w) as i64);
+                    let (mut sum, mut wsum) = ([0.0; 3], 0.0);
+                    for t in -r..=r {
+                        let (nx, ny) = if horizontal { (x + t, y) } else { (x, y + t) };
+                        if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+                            continue;
+                        }
+                        let j = (ny * w as i64 + nx) as usize;
+                        let wt = if j == i { 1.0 } else { weight(&pixels[i], &pixels[j], cos_min, o) };
+                        for c in 0..3 {
+                            sum[c] += wt * input[j][c];
+                        }
+                        wsum += wt;
+                    }
+                    sum.map(|s| s / wsum)
+                })
+                .collect()
+        };
+        pass(&pass(values, true), false)
+    }
+
     #[test]
-    fn transpose_moves_every_pixel_and_is_its_own_inverse() {
-        // Sizes that are not multiples of the block, one narrower than a block, one pixel.
-        for (w, h) in [(70, 33), (5, 41), (1, 1)] {
-            let v: Vec<u32> = (0..(w * h) as u32).collect();
-            let t = transpose(&v, w, h);
-            for y in 0..h {
-                for x in 0..w {
-                    assert_eq!(t[x * h + y], v[y * w + x]);
+    fn separable_equals_its_two_pass_definition_with_varying_kernels() {
+        // Widths that end mid-block, radii from 1 to 9 that change from pixel to pixel,
+        // invalid pixels, other normals and objects, a bumpy surface, both distance measures.
+        for (w, h) in [(29, 14), (8, 9), (3, 20)] {
+            for tangent_plane in [false, true] {
+                let o = FilterOptions { tangent_plane, ..FilterOptions::default() };
+                let mut px = plane(w, h, 0.1, 1.0);
+                for (i, p) in px.iter_mut().enumerate() {
+                    p.beta = 0.1 * (0.3 + (i * 7 % 10) as f64 * 0.3);
+                    p.valid = i % 9 != 4;
+                    p.position.z = ((i % w) as f64 * 0.7).sin() * 0.03;
+                    if i % 23 == 0 {
+                        p.normal = Vec3::new(0.0, 0.6, 0.8);
+                    }
+                    p.object = (i % 31 == 0) as u32;
+                }
+                let v = noise(w * h);
+                let mut sep = v.clone();
+                separable(&px, &mut sep, w, &o);
+                let reference = two_pass_reference(&px, &v, w, &o);
+                for (i, (a, b)) in sep.iter().zip(&reference).enumerate() {
+                    for c in 0..3 {
+                        assert!(
+                            (a[c] - b[c]).abs() < 1e-6,
+                            "{w}x{h} tangent {tangent_plane} pixel {i}: {a:?} vs {b:?}"
+                        );
+                    }
                 }
             }
-            assert_eq!(transpose(&t, h, w), v);
         }
     }
 
