@@ -472,14 +472,18 @@ impl ShadowStrategy {
         let mut method_seconds = 0.0;
         let (w, nl) = (self.width, self.lights.len());
         let n = w * self.height;
-        let mut color: Vec<[f64; 3]> = self.other.par_iter().map(|o| mean(o.sum, o.taken)).collect();
-        let mut unfiltered = color.clone();
+        let filters = self.mode != FilterMode::Adaptive;
         let mut width_px = vec![0.0f32; n];
         let g = self.gbuffer.as_ref();
-        for (l, light) in self.lights.iter().enumerate() {
-            let at = |p: usize| &self.sums[p * nl + l];
-            let mut vis: Vec<[f64; 3]> = (0..n).into_par_iter().map(|p| ratio(at(p).a, at(p).b)).collect();
-            if let Some(surface) = self.surfaces.get(l) {
+        // Each light's filtered visibility (Eqs. 10-12); None where the method does not filter.
+        let filtered: Vec<Option<Vec<[f64; 3]>>> = self
+            .lights
+            .iter()
+            .enumerate()
+            .map(|(l, light)| {
+                let surface = self.surfaces.get(l)?;
+                let at = |p: usize| &self.sums[p * nl + l];
+                let mut vis: Vec<[f64; 3]> = (0..n).into_par_iter().map(|p| ratio(at(p).a, at(p).b)).collect();
                 let t = Instant::now();
                 let mu = self.mu(pass) * light.mu_scale;
                 let kernel = |p: usize| {
@@ -504,31 +508,41 @@ impl ShadowStrategy {
                     }
                 });
                 method_seconds += t.elapsed().as_secs_f64();
-            }
-            color.par_iter_mut().zip(unfiltered.par_iter_mut()).zip(vis.par_iter()).enumerate().for_each(
-                |(p, ((color, unfiltered), vis))| {
-                    let s = at(p);
+                Some(vis)
+            })
+            .collect();
+        // Compose r(x) times each light's visibility (filtered and raw) with the rest of the
+        // light, straight into the frame's f32 images: one pass, no f64 image copies.
+        let (color, unfiltered): (Vec<[f32; 3]>, Vec<[f32; 3]>) = (0..n)
+            .into_par_iter()
+            .map(|p| {
+                let other = mean(self.other[p].sum, self.other[p].taken);
+                let (mut color, mut unfiltered) = (other, other);
+                for (l, vis) in filtered.iter().enumerate() {
+                    let s = &self.sums[p * nl + l];
                     let (r, spec, raw) = (mean(s.r, s.r_n), mean(s.spec, s.n), ratio(s.a, s.b));
+                    let vis = vis.as_ref().map_or(raw, |v| v[p]);
                     for c in 0..3 {
                         color[c] += r[c] * vis[c] + spec[c];
                         unfiltered[c] += r[c] * raw[c] + spec[c];
                     }
-                },
-            );
-        }
-        let spp: Vec<f32> = (0..n)
+                }
+                (color.map(|x| x as f32), unfiltered.map(|x| x as f32))
+            })
+            .unzip();
+        // Samples per pixel: the shadow component's (all lights' together) and the pixel's.
+        let (shadow_spp, spp): (Vec<f32>, Vec<f32>) = (0..n)
+            .into_par_iter()
             .map(|p| {
                 let shadow: u32 = (0..nl).map(|l| self.sums[p * nl + l].n).sum();
-                shadow.max(self.other[p].taken) as f32
+                (shadow as f32, shadow.max(self.other[p].taken) as f32)
             })
-            .collect();
-        let to_f32 = |v: Vec<[f64; 3]>| v.into_iter().map(|c| c.map(|x| x as f32)).collect::<Vec<_>>();
-        let filters = self.mode != FilterMode::Adaptive;
+            .unzip();
         let frame = Frame {
             width: self.width as u32,
             height: self.height as u32,
-            color: to_f32(color),
-            unfiltered: filters.then(|| to_f32(unfiltered)),
+            color,
+            unfiltered: filters.then_some(unfiltered),
             stats: FrameStats {
                 mean_spp: spp.iter().map(|&s| s as f64).sum::<f64>() / n.max(1) as f64,
                 rays_traced: self.rays,
@@ -538,7 +552,7 @@ impl ShadowStrategy {
             },
             components: vec![ComponentMaps {
                 name: "shadow".to_string(),
-                spp: (0..n).map(|p| (0..nl).map(|l| self.sums[p * nl + l].n).sum::<u32>() as f32).collect(),
+                spp: shadow_spp,
                 filter_width: filters.then(|| width_px.clone()),
             }],
             spp,
