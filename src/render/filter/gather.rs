@@ -174,7 +174,8 @@ impl Surface {
             // a zero distance must still give x = 0, not NaN.
             b.inv_two_beta2[lane] = ((1.0 / (2.0 * k.beta * k.beta)) as f32).min(f32::MAX);
         });
-        let g = Gather { surface: &self.blocks, kernels: &kernels, layout: l, options: *o, isa };
+        let cos_min = o.max_normal_angle_deg.to_radians().cos();
+        let g = Gather { surface: &self.blocks, kernels: &kernels, layout: l, options: *o, cos_min, isa };
         // The horizontal pass reads `values` as they are and writes blocks; the vertical pass
         // reads those and writes its centres back into `values`: one image-sized buffer.
         let horizontal: Vec<ValueBlock> =
@@ -279,6 +280,8 @@ struct Gather<'a> {
     kernels: &'a [KernelBlock],
     layout: Layout,
     options: FilterOptions,
+    /// Cosine of the largest normal angle a neighbour may have (`options`), computed once.
+    cos_min: f32,
     isa: Isa,
 }
 
@@ -287,10 +290,6 @@ impl Gather<'_> {
     fn first_pixel(&self, b: usize) -> usize {
         let l = self.layout;
         (b / l.per_row) * l.width + (b % l.per_row) * LANES
-    }
-
-    fn cos_min(&self) -> f32 {
-        self.options.max_normal_angle_deg.to_radians().cos()
     }
 
     /// Block `b` after the horizontal pass over the row-major `values`: each centre lane
@@ -340,7 +339,7 @@ impl Gather<'_> {
         let row = b - b % l.per_row;
         let x = (b - row) * LANES + lane;
         let r = self.kernels[b].radius[lane] as usize;
-        let c = Centres::splat(&self.surface[b], &self.kernels[b], lane, self.cos_min());
+        let c = Centres::splat(&self.surface[b], &self.kernels[b], lane, self.cos_min);
         let (first, last) = (x.saturating_sub(r) / LANES, (x + r).min(l.width - 1) / LANES);
         let mut sums = Sums::default();
         for tb in first..=last {
@@ -401,7 +400,7 @@ impl Gather<'_> {
     fn gather_column<const TANGENT: bool>(&self, input: &[ValueBlock], b: usize) -> Sums {
         let l = self.layout;
         let k = &self.kernels[b];
-        let c = Centres::lanes(&self.surface[b], k, self.cos_min());
+        let c = Centres::lanes(&self.surface[b], k, self.cos_min);
         let y = b / l.per_row;
         let r_max = k.radius.iter().copied().max().unwrap_or(0) as usize;
         let mut sums = Sums::default();
