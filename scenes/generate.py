@@ -247,10 +247,35 @@ def curved():
     }
 
 
+def three_sigma(make):
+    # The same scene under the Gaussian light that AAF's analysis assumes (Mehta et al. 2012,
+    # Sec. 4: Omega_L = 1/sigma): same centre and same sigma, on a rectangle three times as wide
+    # so that it spans +-3 sigma and its edges emit 1% of the centre. The base scenes follow the
+    # authors' code instead: sigma = sqrt(area)/2, a rectangle spanning +-1 sigma whose edges
+    # still emit 61%, close to a uniform light. The radiance keeps the power: per axis the
+    # profile integrates to sqrt(2 pi) erf(k / sqrt 2) sigma over +-k sigma.
+    def made():
+        scene = make()
+        light = scene["lights"][0]["rect"]
+        u, w = light["edgeU"], light["edgeV"]
+        sigma = math.sqrt(math.hypot(u["x"], u["y"], u["z"]) * math.hypot(w["x"], w["y"], w["z"])) / 2
+        centre = {k: light["corner"][k] + (u[k] + w[k]) / 2 for k in "xyz"}
+        light["corner"] = {k: centre[k] - 1.5 * (u[k] + w[k]) for k in "xyz"}
+        light["edgeU"] = {k: 3 * u[k] for k in "xyz"}
+        light["edgeV"] = {k: 3 * w[k] for k in "xyz"}
+        light["gaussianSigma"] = sigma
+        power = (math.erf(1 / math.sqrt(2)) / math.erf(3 / math.sqrt(2))) ** 2
+        light["radiance"] = {k: round(c * power, 3) for k, c in light["radiance"].items()}
+        scene["description"] += ", the light spanning +-3 sigma (the paper's Gaussian)"
+        return scene
+    return made
+
+
 if __name__ == "__main__":
     for name, make in [("cornell", cornell), ("grids", grids), ("curved", curved),
-                       ("cornell-glossy", cornell_glossy), ("interior", interior)]:
+                       ("cornell-glossy", cornell_glossy), ("interior", interior),
+                       ("grids-3sigma", three_sigma(grids)), ("curved-3sigma", three_sigma(curved))]:
         with open(os.path.join(HERE, name + ".json"), "w") as f:
-            compact = name in ("curved", "cornell-glossy", "interior")
+            compact = name in ("curved", "cornell-glossy", "interior", "curved-3sigma")
             json.dump(make(), f, separators=(",", ":") if compact else (",", ": "), indent=None if compact else 1)
             f.write("\n")

@@ -96,10 +96,7 @@ impl SceneBuilder {
         self.geometry.transform(to_internal, |n| n);
         for l in &mut self.lights {
             match l {
-                Light::Rect(r) => {
-                    *r =
-                        RectLight::new(to_internal(r.corner), r.edge_u * scale, r.edge_v * scale, r.radiance, r.profile)
-                }
+                Light::Rect(r) => *r = r.rescaled(to_internal(r.corner), scale),
                 Light::Point(p) => {
                     p.position = to_internal(p.position);
                     p.intensity *= scale * scale;

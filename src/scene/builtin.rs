@@ -10,6 +10,8 @@ const SOURCES: &[(&str, &str)] = &[
     ("curved", include_str!("../../scenes/curved.json")),
     ("cornell-glossy", include_str!("../../scenes/cornell-glossy.json")),
     ("interior", include_str!("../../scenes/interior.json")),
+    ("grids-3sigma", include_str!("../../scenes/grids-3sigma.json")),
+    ("curved-3sigma", include_str!("../../scenes/curved-3sigma.json")),
 ];
 
 pub struct BuiltinScene {
@@ -51,7 +53,10 @@ mod tests {
             assert!(!s.description.is_empty());
             assert_eq!(c.degenerate_triangles, 0, "{}", s.name);
         }
-        assert_eq!(names().collect::<Vec<_>>(), ["cornell", "grids", "curved", "cornell-glossy", "interior"]);
+        assert_eq!(
+            names().collect::<Vec<_>>(),
+            ["cornell", "grids", "curved", "cornell-glossy", "interior", "grids-3sigma", "curved-3sigma"]
+        );
         assert!(get("nope").is_none());
     }
 }

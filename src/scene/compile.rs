@@ -214,7 +214,29 @@ fn add_light(path: &str, l: &proto::Light, b: &mut SceneBuilder) -> FieldResult<
                 proto::EmissionProfile::Uniform => EmissionProfile::Uniform,
                 proto::EmissionProfile::Gaussian => EmissionProfile::Gaussian,
             };
-            b.add_rect_light(RectLight::new(corner, u, v, radiance, profile));
+            let light = match (profile, r.gaussian_sigma) {
+                (_, 0.0) => RectLight::new(corner, u, v, radiance, profile),
+                (EmissionProfile::Gaussian, sigma) => {
+                    let least = u.length().min(v.length()) / 8.0;
+                    if !(sigma >= least) || !sigma.is_finite() {
+                        return err(
+                            format!("{p}.gaussian_sigma"),
+                            format!(
+                                "must be finite and at least the shorter edge / 8 = {least} (the rectangle may span \
+                                 at most +-4 sigma), or 0 for sqrt(area)/2; got {sigma}"
+                            ),
+                        );
+                    }
+                    RectLight::gaussian(corner, u, v, radiance, sigma)
+                }
+                (EmissionProfile::Uniform, _) => {
+                    return err(
+                        format!("{p}.gaussian_sigma"),
+                        "applies only to EMISSION_PROFILE_GAUSSIAN lights (set profile, or leave this 0)",
+                    );
+                }
+            };
+            b.add_rect_light(light);
             Ok(())
         }
         Some(Kind::Point(pt)) => {

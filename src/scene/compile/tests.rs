@@ -41,6 +41,24 @@ fn the_base_scene_compiles() {
 }
 
 #[test]
+fn a_gaussian_light_takes_its_sigma_or_the_authors_default() {
+    let sigma_of = |sigma: f32| {
+        let mut p = base();
+        rect(&mut p).profile = proto::EmissionProfile::Gaussian as i32;
+        rect(&mut p).gaussian_sigma = sigma;
+        match &compile(&p, &SceneLimits::default(), None).unwrap().lights[0] {
+            // The compiled scene is in internal units: sigma relative to the light's size.
+            crate::render::light::Light::Rect(r) => r.sigma() / r.area.sqrt(),
+            _ => unreachable!(),
+        }
+    };
+    // The 1 x 1 light: sqrt(area)/2 by default; 1/8 is the narrowest accepted.
+    for (given, expected) in [(0.0, 0.5), (0.125, 0.125), (3.0, 3.0)] {
+        assert!((sigma_of(given) - expected).abs() < 1e-6 * expected, "{given}: {}", sigma_of(given));
+    }
+}
+
+#[test]
 fn errors_name_the_offending_field() {
     let cases: Vec<(FieldError, &str)> = vec![
         (error_of(|s| s.camera = None), "scene.camera"),
@@ -59,6 +77,29 @@ fn errors_name_the_offending_field() {
             "scene.lights[0].rect.radiance.r",
         ),
         (error_of(|s| rect(s).profile = 7), "scene.lights[0].rect.profile"),
+        // A sigma for a uniform light, too narrow for the rectangle (1 / 8 = 0.125), or not a number.
+        (error_of(|s| rect(s).gaussian_sigma = 0.5), "scene.lights[0].rect.gaussian_sigma"),
+        (
+            error_of(|s| {
+                rect(s).profile = proto::EmissionProfile::Gaussian as i32;
+                rect(s).gaussian_sigma = 0.12;
+            }),
+            "scene.lights[0].rect.gaussian_sigma",
+        ),
+        (
+            error_of(|s| {
+                rect(s).profile = proto::EmissionProfile::Gaussian as i32;
+                rect(s).gaussian_sigma = f32::NAN;
+            }),
+            "scene.lights[0].rect.gaussian_sigma",
+        ),
+        (
+            error_of(|s| {
+                rect(s).profile = proto::EmissionProfile::Gaussian as i32;
+                rect(s).gaussian_sigma = -1.0;
+            }),
+            "scene.lights[0].rect.gaussian_sigma",
+        ),
         (error_of(|s| s.lights.push(proto::Light::default())), "scene.lights[1]"),
         (error_of(|s| s.shapes[0].material = "nope".into()), "scene.shapes[0].material"),
         (error_of(|s| s.shapes[0].geometry = None), "scene.shapes[0]"),
