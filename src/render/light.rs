@@ -298,22 +298,30 @@ impl RectLight {
         }
     }
 
+    /// The diagonal of the part of the rectangle within 2 sigma of the centre along each edge,
+    /// which holds 91% of a Gaussian profile's weight or more: the size the far-field rule's
+    /// nodes must resolve the geometry over. The whole diagonal for the authors' light (+-1
+    /// sigma), two thirds of it for a rectangle spanning +-3 sigma.
+    fn weighted_diagonal(&self) -> f64 {
+        let half = |e: Vec3| (0.5 * e.length() as f64).min(2.0 * self.sigma as f64);
+        2.0 * half(self.edge_u).hypot(half(self.edge_v))
+    }
+
     fn quad(&self) -> [Vec3; 4] {
         [self.corner, self.corner + self.edge_u, self.corner + self.edge_u + self.edge_v, self.corner + self.edge_v]
     }
 
     /// Irradiance of a Gaussian light by the fixed 8 x 8 rule (nodes and weights precomputed),
-    /// for rectangular lights and receivers at least 0.7 light diagonals above its plane
-    /// that see all of it: there the geometry term is smooth over the rectangle, and the rule
-    /// agrees with brute force to 1e-6 (tested for rectangles spanning 1 to 4 sigma; the
-    /// adaptive rule reaches about 1e-4 there) at a small part of the adaptive rule's cost.
+    /// for rectangular lights and receivers that see all of it, at least 0.8 `weighted_diagonal`
+    /// above its plane: there the geometry term is smooth where the profile's weight lies, and
+    /// the rule agrees with brute force to 1e-6 (tested for rectangles spanning 1 to 4 sigma;
+    /// the adaptive rule reaches about 1e-4 there) at a small part of the adaptive rule's cost.
     /// None elsewhere.
     fn far_gaussian_irradiance(&self, x: Vec3, n: Vec3, ng: Vec3) -> Option<f64> {
         let (xd, nd) = (x.as_dvec3(), n.as_dvec3());
         let height = self.normal.as_dvec3().dot(xd - self.center().as_dvec3());
-        let diagonal = (self.edge_u + self.edge_v).length() as f64;
         let sees_all = self.quad().iter().all(|&c| n.dot(c - x) > 0.0 && ng.dot(c - x) > 0.0);
-        if self.gauss_rule.is_empty() || !(height >= 0.7 * diagonal) || !sees_all {
+        if self.gauss_rule.is_empty() || !(height >= 0.8 * self.weighted_diagonal()) || !sees_all {
             return None;
         }
         let sum = self.gauss_rule.iter().map(|&(y, w)| {
@@ -702,7 +710,7 @@ mod tests {
 
     #[test]
     fn far_field_rule_matches_a_brute_force_quadrature() {
-        // Receivers from 0.7 light diagonals to fifty away, tilted, seeing the whole light;
+        // Receivers from 0.8 weighted diagonals (`weighted_diagonal`) to fifty away, tilted, seeing the whole light;
         // the authors' light (a 1 x 1.4 rectangle spanning +-1 sigma) and Gaussians whose tails
         // the rectangle holds (+-3 and +-4 sigma), where a Gauss-Legendre rule with the
         // profile folded into its weights was off by up to 2e-3.
@@ -712,10 +720,15 @@ mod tests {
             gaussian_light_spanning(4.0),
         ];
         for l in &lights {
-            let diagonal = (l.edge_u + l.edge_v).length();
+            let diagonal = l.weighted_diagonal() as f32;
+            let full = (l.edge_u + l.edge_v).length();
+            // The squares span +-3 and +-4 sigma: 2/3 and 1/2 of the diagonal lie within 2 sigma.
+            let span = l.edge_u.length() / (2.0 * l.sigma());
+            let expected = if span > 2.0 { full * 2.0 / span } else { full };
+            assert!((diagonal - expected).abs() < 1e-5 * full, "{diagonal} vs {expected}");
             let mut used = 0;
             for k in 0..120 {
-                let h = diagonal * (0.7 + 49.3 * ((k % 20) as f32 / 19.0).powi(3));
+                let h = diagonal * (0.8 + 49.2 * ((k % 20) as f32 / 19.0).powi(3));
                 let off = Vec3::new(((k * 7) % 11) as f32 - 5.0, 0.0, ((k * 3) % 13) as f32 - 6.0) * 0.1 * h;
                 let x = l.center() - Vec3::Y * h + off;
                 let n = (Vec3::Y + Vec3::new(0.3 * ((k % 5) as f32 - 2.0), 0.0, 0.2)).normalize();
@@ -726,8 +739,8 @@ mod tests {
                 assert_eq!(l.unshadowed_irradiance(x, n, n), far);
             }
             assert!(used > 100, "{used}");
-            // Nearer than 0.7 diagonals, or with the light across the horizon: the adaptive rule.
-            assert!(l.far_gaussian_irradiance(l.center() - Vec3::Y * 0.65 * diagonal, Vec3::Y, Vec3::Y).is_none());
+            // Nearer than 0.8 weighted diagonals, or with the light across the horizon: the adaptive rule.
+            assert!(l.far_gaussian_irradiance(l.center() - Vec3::Y * 0.75 * diagonal, Vec3::Y, Vec3::Y).is_none());
             assert!(l.far_gaussian_irradiance(l.center() - Vec3::Y * 3.0, Vec3::X, Vec3::X).is_none());
         }
     }
