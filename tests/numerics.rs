@@ -328,6 +328,7 @@ fn small_scene(scale: f32) -> proto::Scene {
                 edge_v: v(0.0, 0.0, 1.0),
                 radiance: rgb(5.0),
                 profile: 0,
+                ..Default::default()
             })),
         }],
         settings: None,
