@@ -710,10 +710,10 @@ mod tests {
 
     #[test]
     fn far_field_rule_matches_a_brute_force_quadrature() {
-        // Receivers from 0.8 weighted diagonals (`weighted_diagonal`) to fifty away, tilted, seeing the whole light;
-        // the authors' light (a 1 x 1.4 rectangle spanning +-1 sigma) and Gaussians whose tails
-        // the rectangle holds (+-3 and +-4 sigma), where a Gauss-Legendre rule with the
-        // profile folded into its weights was off by up to 2e-3.
+        // Receivers from 0.8 weighted diagonals (`weighted_diagonal`) to fifty away, tilted,
+        // seeing the whole light; the authors' light (a 1 x 1.4 rectangle spanning +-1 sigma)
+        // and Gaussians whose tails the rectangle holds (+-3 and +-4 sigma), where Gauss-Legendre
+        // nodes mapped through the profile's inverse distribution function were off by 2e-3.
         let lights = [
             RectLight::new(Vec3::new(-0.5, 1.0, -0.7), Vec3::X, Vec3::Z * 1.4, Vec3::ONE, EmissionProfile::Gaussian),
             gaussian_light_spanning(3.0),
