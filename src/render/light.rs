@@ -132,21 +132,8 @@ impl EdgeDistribution {
 
 impl RectLight {
     pub fn new(corner: Vec3, edge_u: Vec3, edge_v: Vec3, radiance: Vec3, profile: EmissionProfile) -> Self {
-        let c = edge_u.cross(edge_v);
-        let area = c.length();
-        RectLight {
-            corner,
-            edge_u,
-            edge_v,
-            normal: c.normalize_or_zero(),
-            area,
-            radiance,
-            profile,
-            sigma: area.sqrt() * 0.5,
-            gauss_rule: Vec::new(),
-            profile_sampler: None,
-        }
-        .with_gauss_rule()
+        let sigma = edge_u.cross(edge_v).length().sqrt() * 0.5;
+        RectLight::with_sigma(corner, edge_u, edge_v, radiance, profile, sigma)
     }
 
     /// A Gaussian light of standard deviation `sigma` (scene units) over this rectangle, which
@@ -156,21 +143,43 @@ impl RectLight {
     /// +-1 sigma and its edges still emit 61% of the centre, close to a uniform light.
     /// Callers validate `sigma` (positive, finite; `scene::compile` also bounds the span).
     pub fn gaussian(corner: Vec3, edge_u: Vec3, edge_v: Vec3, radiance: Vec3, sigma: f32) -> Self {
-        let mut light = RectLight::new(corner, edge_u, edge_v, radiance, EmissionProfile::Gaussian);
-        light.sigma = sigma;
-        light.with_gauss_rule()
+        RectLight::with_sigma(corner, edge_u, edge_v, radiance, EmissionProfile::Gaussian, sigma)
     }
 
     /// The same light moved to `corner` and scaled by `scale` (its profile with it).
     pub fn rescaled(&self, corner: Vec3, scale: f32) -> Self {
-        let mut light = RectLight::new(corner, self.edge_u * scale, self.edge_v * scale, self.radiance, self.profile);
-        light.sigma = self.sigma * scale;
-        light.with_gauss_rule()
+        let (u, v) = (self.edge_u * scale, self.edge_v * scale);
+        RectLight::with_sigma(corner, u, v, self.radiance, self.profile, self.sigma * scale)
+    }
+
+    /// The one constructor: the Gaussian tables are built once, for the final sigma.
+    fn with_sigma(
+        corner: Vec3,
+        edge_u: Vec3,
+        edge_v: Vec3,
+        radiance: Vec3,
+        profile: EmissionProfile,
+        sigma: f32,
+    ) -> Self {
+        let c = edge_u.cross(edge_v);
+        RectLight {
+            corner,
+            edge_u,
+            edge_v,
+            normal: c.normalize_or_zero(),
+            area: c.length(),
+            radiance,
+            profile,
+            sigma,
+            gauss_rule: Vec::new(),
+            profile_sampler: None,
+        }
+        .with_profile_tables()
     }
 
     /// Gaussian rectangles: the far-field rule (`far_gaussian_irradiance`, `gaussian_rule`) and
     /// the importance sampler (`ProfileSampler`).
-    fn with_gauss_rule(mut self) -> Self {
+    fn with_profile_tables(mut self) -> Self {
         // The rule needs a separable profile: a rectangle, not a skewed parallelogram.
         let orthogonal = self.edge_u.dot(self.edge_v).abs() <= 1e-4 * self.edge_u.length() * self.edge_v.length();
         if self.profile == EmissionProfile::Gaussian && orthogonal {
