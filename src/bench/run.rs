@@ -35,6 +35,8 @@ pub struct BenchConfig {
     pub indirect_kernel_scale: Option<f64>,
     /// mu of the soft-shadow strategy's first passes (None: `AafOptions::default`).
     pub shadow_mu0: Option<f64>,
+    /// The soft-shadow analysis takes a Gaussian light's profile sigma (`LightSigma::Profile`).
+    pub shadow_profile_sigma: bool,
     pub out: PathBuf,
     pub name: String,
     /// The command line, recorded in the report.
@@ -118,6 +120,9 @@ pub fn bench_scene(name: &str, mut scene: proto::Scene, cfg: &BenchConfig) -> an
             if let Some(mu0) = cfg.shadow_mu0 {
                 j.aaf.mu0 = mu0;
             }
+            if cfg.shadow_profile_sigma {
+                j.aaf.light_sigma = crate::render::aaf::LightSigma::Profile;
+            }
             let pts = sweep(&j, &reference);
             runs.extend(pts.iter().cloned().map(|p| (r, p)));
             per_seed.push(pts);
@@ -138,6 +143,9 @@ fn options_note(cfg: &BenchConfig) -> String {
     }
     if let Some(mu0) = cfg.shadow_mu0 {
         let _ = write!(s, ", shadow mu0 {mu0}");
+    }
+    if cfg.shadow_profile_sigma {
+        s += ", shadows: the profile's sigma";
     }
     s
 }
@@ -215,7 +223,7 @@ pub fn write_outputs(results: &[SceneResult], cfg: &BenchConfig) -> anyhow::Resu
         .map(|r| {
             let base = r.curves.iter().find(|c| c.method == Method::Uniform).map(|c| c.points.as_slice()).unwrap_or(&[]);
             json!({
-                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces, "pixel_centers": cfg.pixel_centers, "indirect_kernel_scale": cfg.indirect_kernel_scale, "shadow_mu0": cfg.shadow_mu0,
+                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces, "pixel_centers": cfg.pixel_centers, "indirect_kernel_scale": cfg.indirect_kernel_scale, "shadow_mu0": cfg.shadow_mu0, "shadow_profile_sigma": cfg.shadow_profile_sigma,
                 "reference": r.reference_note,
                 "runs": r.runs.iter().map(|(seed, p)| { let mut v = point(p); v["repeat"] = json!(seed); v }).collect::<Vec<_>>(),
                 "medians": r.curves.iter().flat_map(|c| c.points.iter().map(|p| {
@@ -317,6 +325,7 @@ mod tests {
             pixel_centers: false,
             indirect_kernel_scale: None,
             shadow_mu0: None,
+            shadow_profile_sigma: false,
             out: out.clone(),
             name: "t".into(),
             command: "test".into(),

@@ -60,6 +60,10 @@ pub struct ConvergenceArgs {
     /// mu of the soft-shadow filter's first passes (later passes double it).
     #[arg(long)]
     pub shadow_mu0: Option<f64>,
+    /// Give the soft-shadow analysis a Gaussian light's profile sigma, as the authors' code
+    /// did, rather than the standard deviation of what its rectangle emits.
+    #[arg(long)]
+    pub shadow_profile_sigma: bool,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Output directory.
@@ -277,6 +281,7 @@ fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
         pixel_centers: a.pixel_centers,
         indirect_kernel_scale: a.indirect_kernel_scale,
         shadow_mu0: a.shadow_mu0,
+        shadow_profile_sigma: a.shadow_profile_sigma,
         out: a.out.clone(),
         name: a.name.clone().unwrap_or_else(|| if q { "quick".into() } else { "full".into() }),
         command: std::env::args().collect::<Vec<_>>().join(" "),

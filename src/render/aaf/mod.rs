@@ -43,15 +43,23 @@ use rayon::prelude::*;
 use std::time::Instant;
 
 /// Parameters. k, alpha, the 9 sparse samples, the 5-pixel fill and the 20-degree normal check
-/// are the paper's (Sec. 6). The stream starts at the paper's mu = 2 (mu0): passes 0 (the
-/// sparse samples filtered) and 1 use mu0, passes 2, 3, ... use mu0 * 2, 4, ... Starting at
-/// mu = 1 was measured worse on `curved`: there the filtered error is bias (over-blur), about
-/// 100 times the variance at mu = 1 and still 10 times at mu = 2, so a wider filter buys nothing.
+/// are the paper's (Sec. 6). mu runs 1, 2, 4, 8, ...: the first frame (the sparse samples
+/// filtered) at `first_mu` = 1, the critical filter of Sec. 5, then the paper's mu = 2 (mu0)
+/// with Eq. 21's samples, doubling each pass. At 9 samples the filtered error is mostly
+/// variance where the light holds its tails (`grids-3sigma`: 35 times the bias at mu = 2),
+/// so the wider filter of mu = 1 pays there; where the error is bias (`curved`), it costs.
+/// BENCHMARKS.md has both. Starting Eq. 21's passes at mu = 1 was measured worse on `curved`
+/// (bias about 100 times the variance at mu = 1).
 #[derive(Clone, Debug, PartialEq)]
 pub struct AafOptions {
     pub constants: AafConstants,
-    /// mu of passes 0 and 1; pass k >= 1 uses mu0 * 2^(k-1) (Sec. 5.2). The paper's is 2.
+    /// mu of pass 1; pass k >= 1 uses mu0 * 2^(k-1) (Sec. 5.2). The paper's is 2.
     pub mu0: f64,
+    /// mu of the first frame, the 9 sparse samples filtered: fewer samples than Eq. 21 asks
+    /// for at mu0 wherever there is a penumbra.
+    pub first_mu: f64,
+    /// Which sigma of a Gaussian light Eqs. 13 and 15 take (`LightSigma`).
+    pub light_sigma: LightSigma,
     /// Multiplies mu for uniform (non-Gaussian) lights: the paper needed mu = 3 where it used
     /// mu = 2 for Gaussian lights (Sec. 7, Fig. 11b), i.e. 1.5.
     pub uniform_light_mu_scale: f64,
@@ -79,6 +87,8 @@ impl Default for AafOptions {
         AafOptions {
             constants: AafConstants::default(),
             mu0: 2.0,
+            first_mu: 1.0,
+            light_sigma: LightSigma::Emitted,
             uniform_light_mu_scale: 1.5,
             sparse_samples: 9,
             cap: 100.0,
@@ -89,6 +99,22 @@ impl Default for AafOptions {
             antialias_error: 0.1,
         }
     }
+}
+
+/// The sigma of a Gaussian light in the filter width (Eq. 13) and the sample count (Eq. 15).
+/// The paper's analysis takes the light to be a Gaussian of standard deviation sigma
+/// (Sec. 4: Omega_L = 1/sigma, effective width 2 sigma). A rectangle cuts that Gaussian off,
+/// and what it emits is narrower than sigma: the authors' rectangle spans +-1 sigma, and the
+/// light it emits has a standard deviation of 0.54 sigma, as wide as a uniform light of the
+/// same size (0.58).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightSigma {
+    /// The standard deviation of the emitted power (`RectLight::emission_std`): the Gaussian
+    /// the paper models is the one that spreads like the light does. Equal to sigma for a
+    /// light that holds its tails (0.987 sigma at +-3 sigma).
+    Emitted,
+    /// The profile's own sigma, whatever the rectangle cuts off: the authors' code.
+    Profile,
 }
 
 /// One rectangular light as the strategy sees it.
@@ -243,6 +269,9 @@ impl ShadowStrategy {
 
     /// mu of pass `pass` (before a light's own scale).
     fn mu(&self, pass: u32) -> f64 {
+        if pass == 0 {
+            return self.opts.first_mu;
+        }
         self.opts.mu0 * 2f64.powi(pass.saturating_sub(1).min(60) as i32)
     }
 
@@ -602,7 +631,12 @@ fn shadow_light(index: usize, r: &RectLight, opts: &AafOptions) -> ShadowLight {
         corner: r.corner,
         axis_u,
         axis_v: r.normal.cross(axis_u).normalize_or_zero(),
-        sigma: r.sigma() as f64,
+        // Uniform lights keep the paper's treatment (Sec. 7): sigma = sqrt(area)/2 and a
+        // larger mu.
+        sigma: match (r.profile, opts.light_sigma) {
+            (EmissionProfile::Gaussian, LightSigma::Emitted) => r.emission_std(),
+            _ => r.sigma(),
+        } as f64,
         mu_scale: match r.profile {
             EmissionProfile::Gaussian => 1.0,
             EmissionProfile::Uniform => opts.uniform_light_mu_scale,
