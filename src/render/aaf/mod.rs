@@ -46,7 +46,7 @@ use std::time::Instant;
 /// are the paper's (Sec. 6). mu runs 1, 2, 4, 8, ...: the first frame (the sparse samples
 /// filtered) at `first_mu` = 1, the critical filter of Sec. 5, then the paper's mu = 2 (mu0)
 /// with Eq. 21's samples, doubling each pass. At 9 samples the filtered error is mostly
-/// variance where the light holds its tails (`grids-3sigma`: 35 times the bias at mu = 2),
+/// variance where the light holds its tails (`grids-3sigma`: 60 times the bias at mu = 2),
 /// so the wider filter of mu = 1 pays there; where the error is bias (`curved`), it costs.
 /// BENCHMARKS.md has both. Starting Eq. 21's passes at mu = 1 was measured worse on `curved`
 /// (bias about 100 times the variance at mu = 1).
