@@ -33,7 +33,8 @@ pub struct BenchConfig {
     /// Scale of the indirect filter's standard deviation (None: the paper's beta; 0.25: the
     /// authors' code).
     pub indirect_kernel_scale: Option<f64>,
-    /// mu of the soft-shadow strategy's first passes (None: `AafOptions::default`).
+    /// mu of the soft-shadow strategy's pass 1, doubled by each later pass; the first frame
+    /// keeps `AafOptions::first_mu` (None: `AafOptions::default`).
     pub shadow_mu0: Option<f64>,
     /// The soft-shadow analysis takes a Gaussian light's profile sigma (`LightSigma::Profile`).
     pub shadow_profile_sigma: bool,

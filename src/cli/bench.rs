@@ -57,7 +57,8 @@ pub struct ConvergenceArgs {
     /// 0.25 is what the authors' code used).
     #[arg(long)]
     pub indirect_kernel_scale: Option<f64>,
-    /// mu of the soft-shadow filter's first passes (later passes double it).
+    /// mu of the soft-shadow filter's pass 1 (later passes double it; the first frame keeps
+    /// mu = 1).
     #[arg(long)]
     pub shadow_mu0: Option<f64>,
     /// Give the soft-shadow analysis a Gaussian light's profile sigma, as the authors' code
