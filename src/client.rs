@@ -1,8 +1,8 @@
 //! A client of the render service: sends a `RenderRequest` and reassembles the streamed frames.
+use crate::api::wire::FrameAssembler;
+use crate::pipeline::frame::Frame;
 use crate::proto::renderer_client::RendererClient;
 use crate::proto::{RenderRequest, RenderStarted};
-use crate::render::frame::Frame;
-use crate::server::frames::FrameAssembler;
 use anyhow::Context;
 use std::fmt;
 use std::time::Duration;

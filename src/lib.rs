@@ -1,11 +1,16 @@
-//! wedge: a gRPC render-and-denoise service. `render` is the tracer and filter core, `scene`
-//! the scene schema and its compiler, `job` the request-to-job mapping shared by the CLI and
-//! the server, `output` the image files, `server` the thin tonic layer.
+//! wedge: a gRPC render-and-denoise service. Layers, bottom up (each imports only those below
+//! it; `tests/layers.rs` checks): `render`, the tracer and filter core; `methods`' options and
+//! `pipeline::job`, the leaf every render layer shares; `pipeline::{frame, film, strategy}`;
+//! `methods`, one folder per paper; `pipeline::{registry, progressive}`; `scene`, the scene
+//! schema and its compiler; `api`, the request-to-job mapping and the wire codec; `runner`, the
+//! render task model; then the front ends `server`, `client`, `cli`, `bench` and `output`.
+pub mod api;
 pub mod bench;
 pub mod cli;
 pub mod client;
-pub mod job;
+pub mod methods;
 pub mod output;
+pub mod pipeline;
 pub mod render;
 pub mod scene;
 pub mod server;

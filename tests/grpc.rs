@@ -4,18 +4,19 @@ mod common;
 use common::*;
 use std::time::Duration;
 use tonic::Code;
-use wedge::job::{self, Limits};
+use wedge::api::request::{self, Limits};
+use wedge::pipeline::frame::{Frame, HaltReason};
+use wedge::pipeline::job::CancelToken;
+use wedge::pipeline::progressive;
 use wedge::proto::{
     light, render_request::SceneSource, Camera, ListScenesRequest, Method, OutputSelection, PixelFormat, RenderRequest,
     Scene, Vec3,
 };
-use wedge::render::frame::{Frame, HaltReason};
-use wedge::render::progressive::{self, CancelToken};
 use wedge::server::ServerConfig;
 
 /// Renders `req` in-process, without the server, and returns its final frame.
 fn render_locally(req: &RenderRequest, label: &str) -> Frame {
-    let prepared = job::prepare(req, &Limits::default(), None, label).expect("prepare");
+    let prepared = request::prepare(req, &Limits::default(), None, label).expect("prepare");
     let mut last = None;
     progressive::render(&prepared.job, &CancelToken::new(), &mut |f: &Frame| {
         last = Some(f.clone());

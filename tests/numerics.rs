@@ -5,14 +5,15 @@
 use glam::{DVec3, Vec2, Vec3};
 use proptest::prelude::*;
 use std::sync::Arc;
+use wedge::methods::aaf_indirect::params as gi;
+use wedge::methods::aaf_shadows::params::{filter_width, sample_count, slope, AafConstants, PixelGeometry};
+use wedge::pipeline::frame::Frame;
+use wedge::pipeline::job::{CancelToken, Halt, Method, RenderJob};
+use wedge::pipeline::progressive::render;
 use wedge::proto;
-use wedge::render::aaf::params::{filter_width, sample_count, slope, AafConstants, PixelGeometry};
 use wedge::render::filter::{separable, FilterOptions, FilterPixel};
-use wedge::render::frame::Frame;
-use wedge::render::indirect::params as gi;
 use wedge::render::light::{EmissionProfile, RectLight};
 use wedge::render::material::{Brdf, GlossyModel};
-use wedge::render::progressive::{render, CancelToken, Halt, Method, RenderJob};
 use wedge::scene::{compile, SceneLimits};
 
 /// The same cases on every run, so CI is reproducible (a new seed explores new cases).
@@ -222,9 +223,10 @@ proptest! {
         }
         let scene = Arc::new(compile(&s, &SceneLimits::default(), None).expect("valid scene"));
         let job = RenderJob {
+            view: scene.default_view(),
             scene,
             method,
-            halt: Halt { max_passes: 2, max_mean_spp: 0.0, time_budget: None },
+            halt: Halt { max_passes: 2, max_mean_spp: 0.0, time_budget: None, target_error: None },
             seed: 1,
             bounces: 2,
             initial_spp: 1,
@@ -264,7 +266,7 @@ proptest! {
         }
         b.add_rect_light(RectLight::new(Vec3::new(-0.5, 2.0, -0.5), Vec3::X, Vec3::Z, Vec3::ONE, EmissionProfile::Uniform));
         let scene = b.build();
-        let c = &scene.camera;
+        let c = &scene.default_view();
         for (px, py) in [(1.5, 1.5), (0.0, 0.0), (3.0, 3.0)] {
             if let Some(h) = scene.intersect(c.position, c.direction(px, py), 0.0) {
                 prop_assert!(h.t.is_finite() && h.t >= 0.0 && h.ns.is_finite() && h.p.is_finite());

@@ -1,8 +1,9 @@
 //! Error against time and samples: renders a scene with each method, measures every frame's
 //! RMSE against a high-spp plain Monte Carlo reference, and derives equal-error speedups over
 //! uniform unfiltered Monte Carlo (the papers' Fig. 6c / Fig. 10a measurements).
-use crate::render::frame::Frame;
-use crate::render::progressive::{render, CancelToken, Halt, Method, RenderJob};
+use crate::pipeline::frame::Frame;
+use crate::pipeline::job::{CancelToken, Halt, Method, RenderJob};
+use crate::pipeline::progressive::render;
 use crate::render::scene::Scene;
 use std::sync::Arc;
 
@@ -33,9 +34,10 @@ pub fn job(
     bounces: u32,
 ) -> RenderJob {
     RenderJob {
+        view: scene.default_view(),
         scene,
         method,
-        halt: Halt { max_passes, max_mean_spp, time_budget: None },
+        halt: Halt { max_passes, max_mean_spp, time_budget: None, target_error: None },
         seed,
         bounces,
         initial_spp: 1,

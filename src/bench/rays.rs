@@ -44,8 +44,8 @@ pub struct RaySet {
 /// Rays like the renderer's: `spp` jittered camera rays per pixel, and from each primary hit
 /// one shadow ray to the first light and one cosine-distributed bounce ray.
 pub fn make_rays(scene: &Scene, spp: u32) -> [RaySet; 3] {
-    let cam = &scene.camera;
-    let (w, h) = (scene.width(), scene.height());
+    let cam = scene.default_view();
+    let (w, h) = (cam.width, cam.height);
     let mut sets = [RayKind::Primary, RayKind::Shadow, RayKind::Bounce].map(|kind| RaySet {
         kind,
         origins: Vec::new(),

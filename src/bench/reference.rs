@@ -3,9 +3,9 @@
 //! reuses them; or loaded from a given EXR.
 use super::convergence::{final_frame, job};
 use crate::output::{read_exr, write_exr, OutputOptions};
+use crate::pipeline::frame::{Frame, RenderInfo};
+use crate::pipeline::job::Method;
 use crate::proto;
-use crate::render::frame::{Frame, RenderInfo};
-use crate::render::progressive::Method;
 use crate::render::sampler::hash_words;
 use crate::render::scene::Scene;
 use anyhow::Context;

@@ -5,8 +5,8 @@ use super::convergence::{consistent, speedup, sweep, Point};
 use super::plot::{self, Series};
 use super::reference::{cached_reference, load_reference, ReferenceKey};
 use super::{machine_description, median};
+use crate::pipeline::job::Method;
 use crate::proto;
-use crate::render::progressive::Method;
 use crate::scene::{compile, SceneLimits};
 use serde_json::json;
 use std::fmt::Write as _;
@@ -122,7 +122,7 @@ pub fn bench_scene(name: &str, mut scene: proto::Scene, cfg: &BenchConfig) -> an
                 j.aaf.mu0 = mu0;
             }
             if cfg.shadow_profile_sigma {
-                j.aaf.light_sigma = crate::render::aaf::LightSigma::Profile;
+                j.aaf.light_sigma = crate::methods::aaf_shadows::LightSigma::Profile;
             }
             let pts = sweep(&j, &reference);
             runs.extend(pts.iter().cloned().map(|p| (r, p)));

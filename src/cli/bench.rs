@@ -249,7 +249,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
 
 fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
     use crate::bench::run::{bench_scene, resolve_scenes, write_outputs, BenchConfig};
-    use crate::render::progressive::Method;
+    use crate::pipeline::job::Method;
     let methods = if a.methods.is_empty() {
         vec![Method::Uniform, Method::UniformFiltered, Method::Adaptive, Method::Aaf]
     } else {

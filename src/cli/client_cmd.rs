@@ -1,10 +1,11 @@
 //! `wedge client`: the same render through a server, written to the same files.
 use super::request::{build_request, resolve_scene, FrameWriter};
 use super::ClientArgs;
+use crate::api::request::Limits;
 use crate::client::RemoteError;
-use crate::job::{method_from_proto, Limits};
+use crate::pipeline::frame::{CameraInfo, RenderInfo};
+use crate::pipeline::job::Method;
 use crate::proto::{self, render_request::SceneSource};
-use crate::render::frame::{CameraInfo, RenderInfo};
 use crate::scene::FieldError;
 use anyhow::anyhow;
 
@@ -27,7 +28,7 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
             return;
         }
         let mut frame = frame.clone();
-        let method = proto::Method::try_from(started.method).ok().and_then(method_from_proto);
+        let method = proto::Method::try_from(started.method).ok().and_then(Method::from_proto);
         // Unfiltered methods send colour in the unfiltered layer too; keep files identical to
         // `wedge render`'s, which leave those layers out.
         if method.is_some_and(|m| !m.filters()) {

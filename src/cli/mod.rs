@@ -94,6 +94,11 @@ pub struct RenderArgs {
     /// Stop after this many seconds.
     #[arg(long)]
     pub time: Option<f32>,
+    /// Halt once the render's own estimate of its relative RMSE (RMSE over the image's mean)
+    /// is at most this, e.g. 0.02. With no halt option here or in the scene file: 0.01 within
+    /// 20 seconds.
+    #[arg(long)]
+    pub target_error: Option<f32>,
     /// Indirect bounces (0: direct light only).
     #[arg(long)]
     pub bounces: Option<u32>,

@@ -1,8 +1,9 @@
 //! `wedge render`: renders in this process with a progress bar and writes the images.
 use super::request::{build_request, resolve_scene, FrameWriter};
 use super::RenderArgs;
-use crate::job::{prepare, Limits};
-use crate::render::progressive::{render, CancelToken};
+use crate::api::request::{prepare, Limits};
+use crate::pipeline::job::CancelToken;
+use crate::pipeline::progressive::render;
 use anyhow::anyhow;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -26,7 +27,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 .unwrap_or_else(|_| ProgressStyle::default_spinner()),
         )
     };
-    bar.set_message(format!("{}x{} {}", job.scene.width(), job.scene.height(), job.method.name()));
+    bar.set_message(format!("{}x{} {}", job.width(), job.height(), job.method.name()));
     let writer = FrameWriter::new(&args);
     let mut failure = None;
     let result = render(job, &CancelToken::new(), &mut |frame| {

@@ -2,9 +2,9 @@
 //! for. `render` and `client` share both, so the same arguments give the same files.
 use super::RenderArgs;
 use crate::output::{write_frame_files, OutputOptions};
+use crate::pipeline::frame::{Frame, RenderInfo};
+use crate::pipeline::job::Method;
 use crate::proto::{self, render_request::SceneSource};
-use crate::render::frame::{Frame, RenderInfo};
-use crate::render::progressive::Method;
 use crate::scene::{builtin, json};
 use anyhow::{bail, Context};
 use std::path::{Path, PathBuf};
@@ -71,7 +71,7 @@ pub fn build_request(args: &RenderArgs, source: SceneSource) -> anyhow::Result<p
                 let all: Vec<_> = Method::ALL.iter().map(|m| m.name()).collect();
                 format!("--method {name}: unknown method (available: {})", all.join(", "))
             })?;
-            crate::job::method_to_proto(m)
+            m.to_proto()
         }
     };
     Ok(proto::RenderRequest {
@@ -84,6 +84,7 @@ pub fn build_request(args: &RenderArgs, source: SceneSource) -> anyhow::Result<p
             max_passes: args.max_passes.unwrap_or(0),
             max_mean_spp: args.max_spp.unwrap_or(0.0),
             time_budget_seconds: args.time.unwrap_or(0.0),
+            target_error: args.target_error.unwrap_or(0.0),
             bounces: args.bounces,
             initial_spp: args.initial_spp.unwrap_or(0),
             ambient_occlusion: args.ao,

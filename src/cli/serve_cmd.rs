@@ -1,6 +1,6 @@
 //! `wedge serve`: the gRPC server with the limits given on the command line.
 use super::ServeArgs;
-use crate::job::Limits;
+use crate::api::request::Limits;
 use crate::server::{serve, shutdown_signal, ServerConfig};
 
 pub fn run(a: ServeArgs) -> anyhow::Result<()> {

@@ -23,7 +23,7 @@ use super::exr_attributes::{
 };
 use super::exr_canonical::sort_header_attributes;
 use super::{OutputError, OutputOptions};
-use crate::render::frame::{ComponentMaps, Frame, RenderInfo};
+use crate::pipeline::frame::{ComponentMaps, Frame, RenderInfo};
 
 /// ZIP over 16-scanline blocks, written in increasing line order: lossless and compact for
 /// float data, and with a fixed block order the parallel compressor's output is deterministic.
@@ -239,7 +239,7 @@ mod tests {
     use crate::output::exr_attributes::{METHOD_SECONDS, SECONDS};
     use crate::output::exr_canonical::header_attributes;
     use crate::output::test_util::TempDir;
-    use crate::render::frame::{CameraInfo, ComponentMaps, FrameStats, HaltReason};
+    use crate::pipeline::frame::{CameraInfo, ComponentMaps, FrameStats, HaltReason};
 
     fn info() -> RenderInfo {
         RenderInfo {
@@ -293,6 +293,8 @@ mod tests {
                 halt_reason: HaltReason::MaxSpp,
                 dropped_samples: 2,
                 method_seconds: 0.25,
+                pass_complete: true,
+                estimated_error: None,
             },
         }
     }

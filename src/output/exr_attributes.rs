@@ -9,7 +9,7 @@ use std::collections::{BTreeMap, HashMap};
 
 use exr::meta::attribute::{AttributeValue, Text};
 
-use crate::render::frame::{CameraInfo, ComponentMaps, FrameStats, HaltReason, RenderInfo};
+use crate::pipeline::frame::{CameraInfo, ComponentMaps, FrameStats, HaltReason, RenderInfo};
 
 pub(super) const PREFIX: &str = "wedge.";
 pub(super) const SCENE: &str = "wedge.scene";
@@ -25,6 +25,9 @@ pub(super) const METHOD_SECONDS: &str = "wedge.methodSeconds";
 // Not in the original attribute list, but without them `FrameStats` would not survive a round
 // trip through the file.
 pub(super) const FINAL: &str = "wedge.final";
+pub(super) const PASS_COMPLETE: &str = "wedge.passComplete";
+/// Absent on a first frame, which has no estimate.
+pub(super) const ESTIMATED_ERROR: &str = "wedge.estimatedError";
 pub(super) const HALT_REASON: &str = "wedge.haltReason";
 pub(super) const CAMERA_POSITION: &str = "wedge.cameraPosition";
 pub(super) const CAMERA_LOOK_AT: &str = "wedge.cameraLookAt";
@@ -58,11 +61,15 @@ pub(super) fn to_attributes(
         (DROPPED_SAMPLES, text(&stats.dropped_samples.to_string())),
         (FINAL, AttributeValue::I32(stats.is_final.into())),
         (HALT_REASON, text(halt_reason_name(stats.halt_reason))),
+        (PASS_COMPLETE, AttributeValue::I32(stats.pass_complete.into())),
         (CAMERA_POSITION, vec3(camera.position)),
         (CAMERA_LOOK_AT, vec3(camera.look_at)),
         (CAMERA_UP, vec3(camera.up)),
         (FOV_Y, AttributeValue::F32(camera.vertical_fov_deg)),
     ];
+    if let Some(e) = stats.estimated_error {
+        attributes.push((ESTIMATED_ERROR, AttributeValue::F64(e)));
+    }
     if with_seconds {
         attributes.push((SECONDS, AttributeValue::F64(stats.elapsed_seconds)));
         attributes.push((METHOD_SECONDS, AttributeValue::F64(stats.method_seconds)));
@@ -148,6 +155,11 @@ pub(super) fn from_attributes(attributes: &HashMap<Text, AttributeValue>) -> Res
         halt_reason: parse_halt_reason(&halt_reason)
             .ok_or_else(|| format!("attribute {HALT_REASON}: unknown value {halt_reason:?}"))?,
         dropped_samples: parsed_u64(DROPPED_SAMPLES)?,
+        pass_complete: flag(PASS_COMPLETE)?,
+        estimated_error: attributes
+            .contains_key(ESTIMATED_ERROR.as_bytes())
+            .then(|| double(ESTIMATED_ERROR))
+            .transpose()?,
         method_seconds: optional_double(METHOD_SECONDS)?,
     };
     Ok((info, stats))
@@ -189,11 +201,12 @@ fn halt_reason_name(reason: HaltReason) -> &'static str {
         HaltReason::MaxPasses => "maxPasses",
         HaltReason::MaxSpp => "maxSpp",
         HaltReason::TimeBudget => "timeBudget",
+        HaltReason::NoiseTarget => "noiseTarget",
     }
 }
 
 fn parse_halt_reason(name: &str) -> Option<HaltReason> {
-    [HaltReason::None, HaltReason::MaxPasses, HaltReason::MaxSpp, HaltReason::TimeBudget]
+    [HaltReason::None, HaltReason::MaxPasses, HaltReason::MaxSpp, HaltReason::TimeBudget, HaltReason::NoiseTarget]
         .into_iter()
         .find(|&reason| halt_reason_name(reason) == name)
 }
@@ -228,6 +241,8 @@ mod tests {
             halt_reason: HaltReason::TimeBudget,
             dropped_samples: 3,
             method_seconds: 0.5,
+            pass_complete: false,
+            estimated_error: Some(0.0125),
         };
         (info, stats)
     }
@@ -253,7 +268,13 @@ mod tests {
 
     #[test]
     fn every_halt_reason_round_trips() {
-        for reason in [HaltReason::None, HaltReason::MaxPasses, HaltReason::MaxSpp, HaltReason::TimeBudget] {
+        for reason in [
+            HaltReason::None,
+            HaltReason::MaxPasses,
+            HaltReason::MaxSpp,
+            HaltReason::TimeBudget,
+            HaltReason::NoiseTarget,
+        ] {
             assert_eq!(parse_halt_reason(halt_reason_name(reason)), Some(reason));
         }
         assert_eq!(parse_halt_reason("bogus"), None);
@@ -293,6 +314,6 @@ mod tests {
         assert_eq!(texts[FOV_Y], "39.3");
         assert_eq!(texts[FINAL], "1");
         assert_eq!(texts[HALT_REASON], "timeBudget");
-        assert_eq!(texts.len(), 16);
+        assert_eq!(texts.len(), 18);
     }
 }

@@ -15,7 +15,7 @@ mod test_util;
 
 use std::path::{Path, PathBuf};
 
-use crate::render::frame::{Frame, RenderInfo};
+use crate::pipeline::frame::{Frame, RenderInfo};
 
 pub use self::error::OutputError;
 pub use self::exr::{read_exr, write_exr, ExrImage};
@@ -85,7 +85,7 @@ pub fn write_frame_files(
 mod tests {
     use super::test_util::TempDir;
     use super::*;
-    use crate::render::frame::ComponentMaps;
+    use crate::pipeline::frame::ComponentMaps;
 
     #[test]
     fn writes_all_four_files_creating_the_directory() {

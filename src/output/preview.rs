@@ -6,7 +6,7 @@ use std::path::Path;
 use image::{ImageFormat, RgbImage};
 
 use super::OutputError;
-use crate::render::frame::Frame;
+use crate::pipeline::frame::Frame;
 
 /// The exact piecewise sRGB OETF (IEC 61966-2-1) of a linear value in [0, 1].
 fn srgb_oetf(linear: f32) -> f32 {

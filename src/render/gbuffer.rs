@@ -2,6 +2,7 @@
 //! positions, normals, depth, object ids, the BRDF parameters (textures stay out of the
 //! filtered quantities) and the projected pixel size `d` (methods.md §0.1). Built only by the
 //! methods that need it: the uniform baseline never allocates one.
+use super::camera::Camera;
 use super::geometry::NONE;
 use super::material::Material;
 use super::scene::Scene;
@@ -56,10 +57,9 @@ pub struct GBuffer {
 }
 
 impl GBuffer {
-    /// Traces one ray through every pixel centre (rays: width x height).
-    pub fn build(scene: &Scene) -> GBuffer {
-        let (w, h) = (scene.width() as usize, scene.height() as usize);
-        let cam = &scene.camera;
+    /// Traces one ray through every pixel centre of `cam`'s view (rays: width x height).
+    pub fn build(scene: &Scene, cam: &Camera) -> GBuffer {
+        let (w, h) = (cam.width as usize, cam.height as usize);
         let mut pixels = vec![GSample::BACKGROUND; w * h];
         pixels.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
             for (x, px) in row.iter_mut().enumerate() {
@@ -139,16 +139,17 @@ mod tests {
     #[test]
     fn depth_normals_ids_and_pixel_size_match_the_geometry() {
         let s = scene();
-        let g = GBuffer::build(&s);
+        let cam = s.default_view();
+        let g = GBuffer::build(&s, &cam);
         let k = s.world_scale;
         // A pixel left of centre sees the plane (x in [-1, 0]); the right half is background.
         let p = g.at(12, 12);
         assert!(p.is_valid() && !p.emitter);
-        let dir = s.camera.direction(12.5, 12.5);
-        let expected_t = 3.0 * k / dir.dot(s.camera.forward());
+        let dir = cam.direction(12.5, 12.5);
+        let expected_t = 3.0 * k / dir.dot(cam.forward());
         assert!((p.depth - expected_t).abs() < 1e-4 * expected_t, "{} vs {expected_t}", p.depth);
         assert!((p.normal - Vec3::Z).length() < 1e-6);
-        assert!((p.pixel_size - s.camera.projected_pixel_size(p.depth)).abs() < 1e-9);
+        assert!((p.pixel_size - cam.projected_pixel_size(p.depth)).abs() < 1e-9);
         assert!(p.kd == Vec3::splat(0.2) || p.kd == Vec3::splat(0.8));
         assert_eq!(p.object, 0);
         let bg = g.at(28, 12);

@@ -4,7 +4,6 @@
 use super::frame_basis::{cosine_hemisphere, to_world};
 use super::light::Light;
 use super::material::Material;
-use super::progressive::Integrand;
 use super::sampler::PixelSampler;
 use super::scene::{Scene, Surface};
 use glam::Vec3;
@@ -66,6 +65,18 @@ pub fn direct_light_of(
         }
     }
     (sum, rays)
+}
+
+/// What a render estimates at each pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum Integrand {
+    /// Light arriving at the camera.
+    #[default]
+    Radiance,
+    /// Ambient occlusion: the fraction of the cosine-weighted hemisphere above the visible
+    /// point that no geometry nearer than `max_distance` (internal units; infinite for no
+    /// limit) covers. The AAF indirect paper's extension (Sec. 6) with reflector radiance 1.
+    AmbientOcclusion { max_distance: f32 },
 }
 
 /// Emission seen directly by a camera ray at `s`.
@@ -207,7 +218,7 @@ mod tests {
     #[test]
     fn direct_light_on_a_plane_matches_the_closed_form() {
         let scene = floor_scene(0.5, 1.0);
-        let c = &scene.camera;
+        let c = &scene.default_view();
         let dir = c.direction(4.5, 4.5);
         let s = scene.intersect(c.position, dir, 0.0).unwrap();
         let Light::Rect(r) = &scene.lights[0] else { unreachable!() };
@@ -245,7 +256,7 @@ mod tests {
         b.geometry.push([c, c + u + v, c + v], None, None, m, 0);
         b.lights.push(Light::Point(PointLight { position: Vec3::new(0.3, 2.0, 0.1), intensity: Vec3::splat(4.0) }));
         let scene = b.build();
-        let c = &scene.camera;
+        let c = &scene.default_view();
         let dir = c.direction(1.5, 1.5);
         let s = scene.intersect(c.position, dir, 0.0).unwrap();
         let (l, _) = direct_light(&scene, &s, -dir, &mut PixelSampler::new(0, 0, 0));
@@ -256,7 +267,7 @@ mod tests {
     #[test]
     fn bounces_add_light_and_never_go_non_finite() {
         let scene = floor_scene(0.8, 0.05);
-        let c = &scene.camera;
+        let c = &scene.default_view();
         let mut lit = [0.0f64; 3];
         for (k, bounces) in [0u32, 1, 3].into_iter().enumerate() {
             for i in 0..256 {

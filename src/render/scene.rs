@@ -1,4 +1,6 @@
-//! The compiled scene the tracer reads: triangles in BVH order, materials, lights, camera.
+//! The compiled scene the tracer reads: triangles in BVH order, materials, lights. It holds no
+//! camera: a render's view (`Camera`, with its resolution) is made from a `CameraDesc` by
+//! `Scene::view`, so one compiled scene and its BVH render from any camera and size.
 //!
 //! The builder moves every scene into one internal frame (bounds centred at the origin,
 //! diagonal `INTERNAL_DIAGONAL`) by a similarity transform. Everything the methods compute from
@@ -103,13 +105,11 @@ impl SceneBuilder {
                 }
             }
         }
-        let c = &self.camera;
-        let camera =
-            Camera::new(to_internal(c.position), to_internal(c.look_at), c.up, c.vertical_fov_deg, c.width, c.height);
         let degenerate_triangles = self.geometry.degenerate;
         let extent = if diag.is_finite() && diag > 0.0 { (hi - lo) * scale } else { Vec3::ZERO };
         Scene {
-            camera,
+            default_camera: self.camera,
+            origin: center,
             geometry: self.geometry.build(self.bvh_quality, self.bvh_layout),
             materials: self.materials,
             lights: self.lights,
@@ -123,7 +123,11 @@ impl SceneBuilder {
 
 #[derive(Debug)]
 pub struct Scene {
-    pub camera: Camera,
+    /// The camera the scene file describes, in scene units: the view a render takes when the
+    /// request names none (`Scene::default_view`).
+    pub default_camera: CameraDesc,
+    /// The scene-unit point at the internal frame's origin (internal = (p - origin) * scale).
+    pub origin: Vec3,
     pub geometry: Geometry,
     pub materials: Vec<Material>,
     pub lights: Vec<Light>,
@@ -150,12 +154,16 @@ pub struct Surface {
 }
 
 impl Scene {
-    pub fn width(&self) -> u32 {
-        self.camera.width
+    /// The view of `desc` (scene units) in the internal frame the tracer works in.
+    pub fn view(&self, desc: &CameraDesc) -> Camera {
+        let to_internal = |p: Vec3| (p - self.origin) * self.world_scale;
+        let d = desc;
+        Camera::new(to_internal(d.position), to_internal(d.look_at), d.up, d.vertical_fov_deg, d.width, d.height)
     }
 
-    pub fn height(&self) -> u32 {
-        self.camera.height
+    /// The view of the scene file's own camera.
+    pub fn default_view(&self) -> Camera {
+        self.view(&self.default_camera)
     }
 
     pub fn triangle_count(&self) -> usize {
@@ -271,7 +279,7 @@ mod tests {
             EmissionProfile::Uniform,
         ));
         let scene = b.build();
-        let c = &scene.camera;
+        let c = &scene.default_view();
         let s = scene.intersect(c.position, c.direction(3.3, 4.6), 0.0).expect("hits the light");
         assert!(matches!(scene.materials[s.material as usize], Material::Emitter { light: 0 }));
         assert!(s.ng.dot(c.forward()) < 0.0);

@@ -1,5 +1,5 @@
 //! The `ListScenes` answer: the built-in scenes, compiled once at server start for their sizes.
-use crate::job::Limits;
+use crate::api::request::Limits;
 use crate::proto::{ListScenesResponse, SceneInfo};
 use crate::scene::{self, SceneLimits};
 
@@ -17,8 +17,8 @@ pub fn builtin_catalog(limits: &Limits) -> ListScenesResponse {
             let (width, height, triangles, lights) =
                 match scene::compile(&b.scene, &scene_limits, limits.mesh_root.as_deref()) {
                     Ok(compiled) => (
-                        compiled.width(),
-                        compiled.height(),
+                        compiled.default_camera.width,
+                        compiled.default_camera.height,
                         u32::try_from(compiled.triangle_count()).unwrap_or(u32::MAX),
                         compiled.lights.len(),
                     ),

@@ -2,11 +2,10 @@
 //! `render_service` is the `Renderer` service, `catalog` answers `ListScenes`, `state` holds
 //! the counters; health and reflection are registered here.
 pub mod catalog;
-pub mod frames;
 pub mod render_service;
 pub mod state;
 
-pub use frames::{FrameAssembler, DEFAULT_MAX_CHUNK_BYTES};
+pub use crate::api::wire::{FrameAssembler, DEFAULT_MAX_CHUNK_BYTES};
 pub use render_service::RenderService;
 pub use state::ServerState;
 
@@ -24,7 +23,7 @@ use tonic_health::ServingStatus;
 #[derive(Clone, Debug)]
 pub struct ServerConfig {
     pub addr: SocketAddr,
-    pub limits: crate::job::Limits,
+    pub limits: crate::api::request::Limits,
     /// Renders running at once; more are refused with `RESOURCE_EXHAUSTED`.
     pub max_concurrent_renders: usize,
     /// Cap on the pixel bytes of one streamed chunk (at least one row is always sent).
@@ -40,7 +39,7 @@ impl Default for ServerConfig {
     fn default() -> Self {
         ServerConfig {
             addr: SocketAddr::from(([127, 0, 0, 1], 50051)),
-            limits: crate::job::Limits::default(),
+            limits: crate::api::request::Limits::default(),
             max_concurrent_renders: 2,
             max_chunk_bytes: DEFAULT_MAX_CHUNK_BYTES,
             max_request_bytes: 256 << 20,

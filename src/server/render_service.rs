@@ -1,16 +1,17 @@
 //! The `Renderer` gRPC service: maps requests through `job::prepare`, runs
-//! `render::progressive::render` on a blocking thread and streams its frames as chunks.
-use super::frames::{self, frame_complete};
+//! `pipeline::progressive::render` on a blocking thread and streams its frames as chunks.
 use super::state::{RenderOutcome, ServerState};
 use super::ServerConfig;
-use crate::job::{self, Limits};
+use crate::api::request::{self, Limits};
+use crate::api::wire::frame_complete;
+use crate::pipeline::frame::Frame;
+use crate::pipeline::job::{CancelToken, RenderError, RenderJob};
+use crate::pipeline::progressive;
+use crate::pipeline::registry::component_names;
 use crate::proto::{
     render_request::SceneSource, render_update, renderer_server::Renderer, ListScenesRequest, ListScenesResponse,
     OutputSelection, PixelFormat, RenderRequest, RenderStarted, RenderUpdate,
 };
-use crate::render::frame::Frame;
-use crate::render::progressive::{self, CancelToken, RenderError, RenderJob};
-use crate::render::strategy::component_names;
 use std::sync::Arc;
 use std::time::Instant;
 use tokio::sync::{mpsc, Semaphore};
@@ -88,28 +89,29 @@ impl Renderer for RenderService {
         // Compiling a scene builds its BVH: keep it off the async workers.
         let limits = Arc::clone(&self.limits);
         let prep_label = label.clone();
-        let prepared =
-            tokio::task::spawn_blocking(move || job::prepare(&req, &limits, limits.mesh_root.as_deref(), &prep_label))
-                .await
-                .map_err(|e| {
-                    warn!(%peer, scene = %label, "scene preparation failed: {e}");
-                    Status::internal("scene preparation failed")
-                })?
-                .map_err(|e| {
-                    warn!(%peer, scene = %label, "rejected render: {e}");
-                    Status::invalid_argument(e.to_string())
-                })?;
+        let prepared = tokio::task::spawn_blocking(move || {
+            request::prepare(&req, &limits, limits.mesh_root.as_deref(), &prep_label)
+        })
+        .await
+        .map_err(|e| {
+            warn!(%peer, scene = %label, "scene preparation failed: {e}");
+            Status::internal("scene preparation failed")
+        })?
+        .map_err(|e| {
+            warn!(%peer, scene = %label, "rejected render: {e}");
+            Status::invalid_argument(e.to_string())
+        })?;
         let job = prepared.job;
         // Known before rendering, so that `RenderStarted` can announce every layer.
         let components = component_names(&job);
 
         let started = RenderStarted {
-            width: job.scene.width(),
-            height: job.scene.height(),
-            method: crate::job::method_to_proto(job.method) as i32,
+            width: job.width(),
+            height: job.height(),
+            method: job.method.to_proto() as i32,
             seed: job.seed,
             triangles: u32::try_from(job.scene.triangle_count()).unwrap_or(u32::MAX),
-            layers: frames::layer_names(&outputs, &components),
+            layers: crate::api::wire::layer_names(&outputs, &components),
             format: outputs.format,
         };
         let (tx, rx) = mpsc::channel::<UpdateResult>(CHANNEL_CAPACITY);
@@ -122,7 +124,7 @@ impl Renderer for RenderService {
         let id = active.id();
         info!(
             render = id, %peer, scene = %label,
-            width = job.scene.width(), height = job.scene.height(),
+            width = job.width(), height = job.height(),
             method = job.method.name(), seed = job.seed, triangles = job.scene.triangle_count(),
             max_passes = job.halt.max_passes, max_mean_spp = job.halt.max_mean_spp,
             time_budget = ?job.halt.time_budget, bounces = job.bounces,
@@ -224,7 +226,7 @@ struct RenderSummary {
     passes: u32,
     frames_sent: u32,
     mean_spp: f64,
-    halt: crate::render::frame::HaltReason,
+    halt: crate::pipeline::frame::HaltReason,
 }
 
 enum TaskError {
@@ -272,7 +274,7 @@ impl RenderTask {
 
     /// Streams one frame: its chunks, then `FrameComplete`. Blocks while the channel is full.
     fn send_frame(&self, frame: &Frame) -> Result<(), TaskError> {
-        let (w, h) = (self.job.scene.width(), self.job.scene.height());
+        let (w, h) = (self.job.width(), self.job.height());
         if (frame.width, frame.height) != (w, h) {
             return Err(TaskError::Status(Status::internal(format!(
                 "render produced a {}x{} frame for a {w}x{h} image",
@@ -280,11 +282,11 @@ impl RenderTask {
             ))));
         }
         let (sel, components) = (&self.outputs, self.components.as_slice());
-        frames::check_frame(frame, sel, components)
+        crate::api::wire::check_frame(frame, sel, components)
             .map_err(|e| TaskError::Status(Status::internal(format!("render produced {e}"))))?;
-        let rows = frames::rows_per_chunk(frame.width, sel, components, self.max_chunk_bytes);
-        for (y0, n) in frames::chunk_bands(frame.height, rows) {
-            let chunk = frames::encode_rows(frame, sel, components, y0, n);
+        let rows = crate::api::wire::rows_per_chunk(frame.width, sel, components, self.max_chunk_bytes);
+        for (y0, n) in crate::api::wire::chunk_bands(frame.height, rows) {
+            let chunk = crate::api::wire::encode_rows(frame, sel, components, y0, n);
             self.tx.blocking_send(update(render_update::Kind::Chunk(chunk))).map_err(|_| TaskError::ClientGone)?;
         }
         let complete = frame_complete(&frame.stats);

@@ -8,12 +8,12 @@ use std::time::Duration;
 use tokio::sync::oneshot;
 use tokio::task::JoinHandle;
 use tonic::transport::{Channel, Endpoint};
+use wedge::pipeline::frame::Frame;
 use wedge::proto::renderer_client::RendererClient;
 use wedge::proto::{
     render_request::SceneSource, render_update, Method, OutputSelection, RenderRequest, RenderSettings, RenderStarted,
     RenderUpdate,
 };
-use wedge::render::frame::Frame;
 use wedge::server::{FrameAssembler, ServerConfig, ServerState};
 
 pub struct TestServer {

@@ -37,7 +37,7 @@ fn the_base_scene_compiles() {
     let s = compile(&base(), &SceneLimits::default(), None).unwrap();
     // Two triangles of the quad plus two of the light's own surface.
     assert_eq!(s.triangle_count(), 4);
-    assert_eq!((s.width(), s.height()), (16, 12));
+    assert_eq!((s.default_camera.width, s.default_camera.height), (16, 12));
 }
 
 #[test]

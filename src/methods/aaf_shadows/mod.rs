@@ -23,99 +23,30 @@
 //! part of area lights' direct light is added unfiltered, as the paper assumes a separate
 //! specular pass; so are point lights and emission. Indirect light is not this strategy's: the
 //! indirect strategy adds it (`strategy::make_strategy`).
+pub mod options;
 pub mod params;
 
-use super::film::{mean, Tally};
-use super::filter::{FilterKernel, FilterOptions, FilterSurface};
-use super::frame::{ComponentMaps, Frame, FrameStats};
-use super::gbuffer::GBuffer;
-use super::integrator::{emitted, radiance_from, DirectLights, PathResult};
-use super::light::{EmissionProfile, Light, RectLight};
-use super::material::Material;
-use super::progressive::{RenderError, RenderJob};
-use super::sampler::PixelSampler;
-use super::scene::Scene;
-use super::scene::Surface;
-use super::strategy::{FilterMode, PassContext, PassOutput, Strategy};
+pub use options::{AafOptions, LightSigma};
+
+use super::mode::FilterMode;
+use crate::pipeline::film::{mean, Tally};
+use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
+use crate::pipeline::job::{RenderError, RenderJob};
+use crate::pipeline::strategy::{PassContext, PassOutput, Strategy};
+use crate::render::camera::Camera;
+use crate::render::filter::{FilterKernel, FilterOptions, FilterSurface};
+use crate::render::gbuffer::GBuffer;
+use crate::render::integrator::{emitted, radiance_from, DirectLights, PathResult};
+use crate::render::light::{EmissionProfile, Light, RectLight};
+use crate::render::material::Material;
+use crate::render::sampler::PixelSampler;
+use crate::render::scene::Scene;
+use crate::render::scene::Surface;
 use glam::{DVec3, Vec3};
-use params::{filter_width, sample_count, slope, AafConstants, PixelGeometry};
+use params::{filter_width, sample_count, slope, PixelGeometry};
 use rayon::prelude::*;
+use std::sync::Arc;
 use std::time::Instant;
-
-/// Parameters. k, alpha, the 9 sparse samples, the 5-pixel fill and the 20-degree normal check
-/// are the paper's (Sec. 6). mu runs 1, 2, 4, 8, ...: the first frame (the sparse samples
-/// filtered) at `first_mu` = 1, the critical filter of Sec. 5, then the paper's mu = 2 (mu0)
-/// with Eq. 21's samples, doubling each pass. At 9 samples the filtered error is mostly
-/// variance where the light holds its tails (`grids-3sigma`: 60 times the bias at mu = 2),
-/// so the wider filter of mu = 1 pays there; where the error is bias (`curved`), it costs.
-/// BENCHMARKS.md has both. Starting Eq. 21's passes at mu = 1 was measured worse on `curved`
-/// (bias about 100 times the variance at mu = 1).
-#[derive(Clone, Debug, PartialEq)]
-pub struct AafOptions {
-    pub constants: AafConstants,
-    /// mu of pass 1; pass k >= 1 uses mu0 * 2^(k-1) (Sec. 5.2). The paper's is 2.
-    pub mu0: f64,
-    /// mu of the first frame, the 9 sparse samples filtered: fewer samples than Eq. 21 asks
-    /// for at mu0 wherever there is a penumbra.
-    pub first_mu: f64,
-    /// Which sigma of a Gaussian light Eqs. 13 and 15 take (`LightSigma`).
-    pub light_sigma: LightSigma,
-    /// Multiplies mu for uniform (non-Gaussian) lights: the paper needed mu = 3 where it used
-    /// mu = 2 for Gaussian lights (Sec. 7, Fig. 11b), i.e. 1.5.
-    pub uniform_light_mu_scale: f64,
-    /// Samples per pixel and light of the sparse first pass (Sec. 6: 9).
-    pub sparse_samples: u32,
-    /// Most samples per pixel and light at mu = 1; the cap grows as mu^2, like n itself.
-    pub cap: f64,
-    /// Unoccluded pixels take the mean slopes of occluded pixels within this radius (Sec. 6).
-    pub fill_radius: u32,
-    /// Divide the projected pixel size by |n . view| (the paper's d "accounts for
-    /// foreshortening"); the authors' code left it out.
-    pub foreshortening: bool,
-    pub filter: FilterOptions,
-    /// Filter width in pixels of the `uniform-filtered` baseline.
-    pub fixed_filter_px: f64,
-    /// Antialiasing with jittered samples (not the paper's: it shades pixel centres): a pixel
-    /// also gets the samples its own spread of r(x) and of the other light asks for, so that
-    /// their standard error is at most this fraction of the image's mean value at mu0, halving
-    /// as mu doubles. 0 turns it off.
-    pub antialias_error: f64,
-}
-
-impl Default for AafOptions {
-    fn default() -> Self {
-        AafOptions {
-            constants: AafConstants::default(),
-            mu0: 2.0,
-            first_mu: 1.0,
-            light_sigma: LightSigma::Emitted,
-            uniform_light_mu_scale: 1.5,
-            sparse_samples: 9,
-            cap: 100.0,
-            fill_radius: 5,
-            foreshortening: true,
-            filter: FilterOptions::default(),
-            fixed_filter_px: 2.0,
-            antialias_error: 0.1,
-        }
-    }
-}
-
-/// The sigma of a Gaussian light in the filter width (Eq. 13) and the sample count (Eq. 15).
-/// The paper's analysis takes the light to be a Gaussian of standard deviation sigma
-/// (Sec. 4: Omega_L = 1/sigma, effective width 2 sigma). A rectangle cuts that Gaussian off,
-/// and what it emits is narrower than sigma: the authors' rectangle spans +-1 sigma, and the
-/// light it emits has a standard deviation of 0.54 sigma, as wide as a uniform light of the
-/// same size (0.58).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LightSigma {
-    /// The standard deviation of the emitted power (`RectLight::emission_std`): the Gaussian
-    /// the paper models is the one that spreads like the light does. Equal to sigma for a
-    /// light that holds its tails (0.987 sigma at +-3 sigma).
-    Emitted,
-    /// The profile's own sigma, whatever the rectangle cuts off: the authors' code.
-    Profile,
-}
 
 /// One rectangular light as the strategy sees it.
 struct ShadowLight {
@@ -217,7 +148,8 @@ pub struct ShadowStrategy {
     width: usize,
     height: usize,
     lights: Vec<ShadowLight>,
-    gbuffer: Option<GBuffer>,
+    /// The render's shared G-buffer (`PassContext::gbuffer`), from pass 0 on.
+    gbuffer: Option<Arc<GBuffer>>,
     /// Per light, the filter's view of the G-buffer (positions in the light's plane, Eq. 12),
     /// built once per render; empty for `adaptive`, which does not filter.
     surfaces: Vec<FilterSurface>,
@@ -247,7 +179,7 @@ impl ShadowStrategy {
                 Light::Point(_) => None,
             })
             .collect();
-        let (w, h) = (job.scene.width() as usize, job.scene.height() as usize);
+        let (w, h) = (job.width() as usize, job.height() as usize);
         ShadowStrategy {
             mode,
             opts: job.aaf.clone(),
@@ -268,17 +200,18 @@ impl ShadowStrategy {
     }
 
     /// mu of pass `pass` (before a light's own scale).
+    /// Passes 0 (the preview) and 1 (the sparse samples completed) filter at `first_mu`; pass
+    /// k >= 2 at mu0 * 2^(k-2).
     fn mu(&self, pass: u32) -> f64 {
-        if pass == 0 {
+        if pass <= 1 {
             return self.opts.first_mu;
         }
-        self.opts.mu0 * 2f64.powi(pass.saturating_sub(1).min(60) as i32)
+        self.opts.mu0 * 2f64.powi(pass.saturating_sub(2).min(60) as i32)
     }
 
-    fn setup(&mut self, scene: &Scene) {
-        let g = GBuffer::build(scene);
-        self.rays += (self.width * self.height) as u64;
-        self.d = g.pixel_sizes(scene.camera.position, self.opts.foreshortening);
+    fn setup(&mut self, ctx: &PassContext) {
+        let g = Arc::clone(ctx.gbuffer());
+        self.d = g.pixel_sizes(ctx.view.position, self.opts.foreshortening);
         let n = self.width * self.height;
         self.sums = vec![LightSums::default(); n * self.lights.len()];
         self.other = vec![OtherSums::default(); n];
@@ -345,8 +278,9 @@ impl ShadowStrategy {
     /// Samples each pixel-light should have after pass `pass`.
     fn targets(&self, pass: u32) -> Vec<Target> {
         let sparse = self.opts.sparse_samples.max(1);
-        if pass == 0 {
-            return vec![Target { n: sparse, r: sparse }; self.sums.len()];
+        if pass <= 1 {
+            let n = if pass == 0 { self.opts.preview_samples.clamp(1, sparse) } else { sparse };
+            return vec![Target { n, r: n }; self.sums.len()];
         }
         let nl = self.lights.len();
         let antialias = self.antialias_target(pass);
@@ -357,7 +291,7 @@ impl ShadowStrategy {
                 let s = &self.sums[k];
                 match self.mode {
                     FilterMode::UniformFiltered => {
-                        let n = sparse.saturating_mul(1u32 << pass.min(20));
+                        let n = sparse.saturating_mul(1u32 << (pass - 1).min(20));
                         Target { n, r: n }
                     }
                     FilterMode::Aaf | FilterMode::Adaptive => {
@@ -407,12 +341,12 @@ impl ShadowStrategy {
                     // With pixel centres, the pass's samples share one camera ray and r.
                     let centre = (job.pixel_centers && new > 0).then(|| {
                         rays += 1;
-                        Centre::new(scene, lights, x, y)
+                        Centre::new(scene, &job.view, lights, x, y)
                     });
                     for _ in 0..new {
                         let mut sampler = PixelSampler::new(job.seed, (y * w + x) as u32, px.taken);
                         px.taken += 1;
-                        let at = Pixel { x, y, centre: centre.as_ref() };
+                        let at = Pixel { cam: &job.view, x, y, centre: centre.as_ref() };
                         let (r, d) = sample_pixel(scene, lights, at, &mut sampler, sums, want, px, record_slopes);
                         rays += r;
                         dropped += d;
@@ -594,13 +528,14 @@ impl ShadowStrategy {
 impl Strategy for ShadowStrategy {
     fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError> {
         if ctx.pass == 0 {
-            self.setup(ctx.scene);
+            self.setup(ctx);
         }
         let t = Instant::now();
         let targets = self.targets(ctx.pass);
         self.method_seconds += t.elapsed().as_secs_f64();
-        // The fixed-width baseline uses no slopes: it skips their extra closest-hit queries.
-        let slopes = ctx.pass == 0 && self.mode != FilterMode::UniformFiltered;
+        // The sparse samples (the preview's and pass 1's) record slopes; the fixed-width
+        // baseline uses none: it skips their extra closest-hit queries.
+        let slopes = ctx.pass <= 1 && self.mode != FilterMode::UniformFiltered;
         let complete = self.trace(ctx, &targets, slopes)?;
         let t = Instant::now();
         if slopes {
@@ -681,9 +616,9 @@ struct Centre {
 }
 
 impl Centre {
-    fn new(scene: &Scene, lights: &[ShadowLight], x: usize, y: usize) -> Centre {
-        let dir = scene.camera.direction(x as f32 + 0.5, y as f32 + 0.5);
-        let hit = scene.intersect(scene.camera.position, dir, 0.0);
+    fn new(scene: &Scene, cam: &Camera, lights: &[ShadowLight], x: usize, y: usize) -> Centre {
+        let dir = cam.direction(x as f32 + 0.5, y as f32 + 0.5);
+        let hit = scene.intersect(cam.position, dir, 0.0);
         let r = lights
             .iter()
             .map(|l| match (&scene.lights[l.index], &hit) {
@@ -700,6 +635,7 @@ impl Centre {
 /// Which pixel a sample belongs to, and its shared centre ray when shading pixel centres.
 #[derive(Clone, Copy)]
 struct Pixel<'a> {
+    cam: &'a Camera,
     x: usize,
     y: usize,
     centre: Option<&'a Centre>,
@@ -718,7 +654,7 @@ fn sample_pixel(
     other: &mut OtherSums,
     record_slopes: bool,
 ) -> (u64, u64) {
-    let cam = &scene.camera;
+    let cam = at.cam;
     let (dir, hit, mut rays) = match at.centre {
         Some(c) => (c.dir, c.hit, 0u64),
         None => {

@@ -1,17 +1,22 @@
 //! Turns a `RenderRequest` (from gRPC or built by the CLI) into a validated render job. Both
 //! front ends go through here, so the same request renders the same image either way, and every
 //! field of the request is checked in one place.
+use crate::pipeline::frame::{CameraInfo, RenderInfo};
+use crate::pipeline::job::{Halt, Integrand, Method, RenderJob};
+use crate::pipeline::registry::DEFAULT_METHOD;
 use crate::proto;
-use crate::render::frame::{CameraInfo, RenderInfo};
-use crate::render::progressive::{Halt, Integrand, Method, RenderJob};
 use crate::scene::fields::{enum_value, err, finite, opt_vec3, FieldResult};
 use crate::scene::{builtin, compile, FieldError, SceneLimits};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
-/// Passes a render runs when the request and scene set no halt condition at all.
-pub const DEFAULT_PASSES: u32 = 8;
+/// The noise target of a render when the request and scene set no halt condition at all: 1%
+/// relative RMSE, by the render's own estimate (`pipeline::noise`).
+pub const DEFAULT_TARGET_ERROR: f64 = 0.01;
+/// The time budget of a render when the request and scene set no halt condition at all: a
+/// render with no halt given anywhere always ends, whatever the method and scene.
+pub const DEFAULT_TIME_BUDGET_SECONDS: f64 = 20.0;
 /// Most indirect bounces a request may ask for.
 pub const MAX_BOUNCES: u32 = 64;
 /// Most samples per pixel of the first uniform pass.
@@ -92,7 +97,8 @@ pub fn prepare(
     // product like the image size, so one request cannot exhaust the server's memory.
     let area_lights =
         compiled.lights.iter().filter(|l| matches!(l, crate::render::light::Light::Rect(_))).count() as u64;
-    let pixels = compiled.width() as u64 * compiled.height() as u64;
+    let view = compiled.default_view();
+    let pixels = view.width as u64 * view.height as u64;
     if method != Method::Uniform && pixels * area_lights.max(1) > limits.max_pixels {
         return err(
             "settings.method",
@@ -107,6 +113,7 @@ pub fn prepare(
     let cam = scene.camera.as_ref().map(camera_info).unwrap_or_default();
     Ok(PreparedJob {
         job: RenderJob {
+            view,
             scene: Arc::new(compiled),
             method,
             halt,
@@ -198,10 +205,11 @@ fn merge_settings(scene: Option<&proto::RenderSettings>, req: Option<&proto::Ren
         if r.method != 0 {
             s.method = r.method;
         }
-        if r.max_passes != 0 || r.max_mean_spp != 0.0 || r.time_budget_seconds != 0.0 {
+        if r.max_passes != 0 || r.max_mean_spp != 0.0 || r.time_budget_seconds != 0.0 || r.target_error != 0.0 {
             s.max_passes = r.max_passes;
             s.max_mean_spp = r.max_mean_spp;
             s.time_budget_seconds = r.time_budget_seconds;
+            s.target_error = r.target_error;
         }
         if r.bounces.is_some() {
             s.bounces = r.bounces;
@@ -240,29 +248,8 @@ fn integrand(s: &proto::RenderSettings, world_scale: f32) -> FieldResult<Integra
     Ok(Integrand::AmbientOcclusion { max_distance })
 }
 
-/// The wire enum of a core method.
-pub fn method_to_proto(m: Method) -> proto::Method {
-    match m {
-        Method::Uniform => proto::Method::Uniform,
-        Method::Aaf => proto::Method::Aaf,
-        Method::Adaptive => proto::Method::Adaptive,
-        Method::UniformFiltered => proto::Method::UniformFiltered,
-    }
-}
-
-/// The core method of a wire enum (`None` for METHOD_UNSPECIFIED).
-pub fn method_from_proto(m: proto::Method) -> Option<Method> {
-    match m {
-        proto::Method::Unspecified => None,
-        proto::Method::Uniform => Some(Method::Uniform),
-        proto::Method::Aaf => Some(Method::Aaf),
-        proto::Method::Adaptive => Some(Method::Adaptive),
-        proto::Method::UniformFiltered => Some(Method::UniformFiltered),
-    }
-}
-
 fn validate_settings(s: &proto::RenderSettings, limits: &Limits) -> FieldResult<(Method, Halt, u32, u32)> {
-    let method = method_from_proto(enum_value("settings.method", s.method)?).unwrap_or(Method::Uniform);
+    let method = Method::from_proto(enum_value("settings.method", s.method)?).unwrap_or(DEFAULT_METHOD);
     if s.max_passes > limits.max_passes {
         return err(
             "settings.max_passes",
@@ -290,15 +277,18 @@ fn validate_settings(s: &proto::RenderSettings, limits: &Limits) -> FieldResult<
     if s.initial_spp > MAX_INITIAL_SPP {
         return err("settings.initial_spp", format!("must be <= {MAX_INITIAL_SPP}, got {}", s.initial_spp));
     }
-    // With no halt condition at all, stop after DEFAULT_PASSES; with some, the server's pass
-    // limit still bounds the render.
-    let any = s.max_passes != 0 || spp > 0.0 || time > 0.0;
-    let max_passes = if s.max_passes != 0 {
-        s.max_passes
-    } else if any {
-        limits.max_passes
+    let target = finite("settings.target_error", s.target_error)? as f64;
+    if !(0.0..=1.0).contains(&target) {
+        return err("settings.target_error", format!("must be in [0, 1] (0: no noise target), got {target}"));
+    }
+    // With no halt condition at all, a noise target within a time budget: every render ends.
+    // With some, the server's pass limit still bounds the render.
+    let any = s.max_passes != 0 || spp > 0.0 || time > 0.0 || target > 0.0;
+    let max_passes = if s.max_passes != 0 { s.max_passes } else { limits.max_passes };
+    let (time, target) = if any {
+        (time, target)
     } else {
-        DEFAULT_PASSES.min(limits.max_passes)
+        (DEFAULT_TIME_BUDGET_SECONDS.min(limits.max_time_budget_seconds), DEFAULT_TARGET_ERROR)
     };
     // The server's time limit bounds every render, also one that asks for no budget.
     let budget = if time > 0.0 { time } else { limits.max_time_budget_seconds };
@@ -306,6 +296,7 @@ fn validate_settings(s: &proto::RenderSettings, limits: &Limits) -> FieldResult<
         max_passes,
         max_mean_spp: if spp > 0.0 { spp } else { limits.max_mean_spp },
         time_budget: Duration::try_from_secs_f64(budget).ok(),
+        target_error: (target > 0.0).then_some(target),
     };
     Ok((method, halt, bounces, s.initial_spp.max(1)))
 }
@@ -336,7 +327,7 @@ mod tests {
         req.seed = 5;
         req.settings = Some(proto::RenderSettings { max_passes: 3, bounces: Some(2), ..Default::default() });
         let p = prepare(&req, &Limits::default(), None, "cornell").unwrap();
-        assert_eq!((p.job.scene.width(), p.job.scene.height()), (32, 24));
+        assert_eq!((p.job.width(), p.job.height()), (32, 24));
         assert_eq!(p.job.halt.max_passes, 3);
         assert_eq!(p.job.bounces, 2);
         assert_eq!(p.info.seed, 5);

@@ -8,12 +8,12 @@
 //! Each is averaged per pixel, filtered with its own width (Eqs. 15-16; 10-degree normal check,
 //! world distances) and modulated by the pixel's kd or ks.
 //!
-//! Pass 0 traces 16 samples per pixel (Sec. 5's initial rays, drawn from the same distribution
-//! as later ones and kept, so reusing them adds no bias); their cosine rays give z_min and
-//! z_max (hits only; z_min clamped to 2% of the scene's largest dimension), or their glossy
-//! rays on surfaces without a diffuse part. Pass k >= 1 uses
-//! mu = mu0 * 2^(k-1) and tops each pixel and component up to n(mu) of Eq. 21, clamped to
-//! [16, 100 mu].
+//! Passes 0 and 1 trace 16 samples per pixel (Sec. 5's initial rays, drawn from the same
+//! distribution as later ones and kept, so reusing them adds no bias): the first in pass 0, a
+//! preview filtered with what that one sample found, the other 15 in pass 1. Their cosine rays
+//! give z_min and z_max (hits only; z_min clamped to 2% of the scene's largest dimension), or
+//! their glossy rays on surfaces without a diffuse part. Pass k >= 2 uses mu = mu0 * 2^(k-2)
+//! and tops each pixel and component up to n(mu) of Eq. 21, clamped to [16, 100 mu].
 //!
 //! Departures from the paper, each for the same reason as in the soft-shadow strategy (the
 //! stream converges to the same ground truth as `uniform`, antialiasing included):
@@ -27,65 +27,28 @@
 //!   converge too. Pixels with reflectors also never fall below that floor.
 //! - The filter standard deviation can be scaled (`kernel_scale`): the authors' code used an
 //!   effective beta / 4; the default is the paper's beta.
+pub mod options;
 pub mod params;
 
-use super::film::{mean, Tally};
-use super::filter::{FilterKernel, FilterOptions, FilterSurface};
-use super::frame::{ComponentMaps, Frame, FrameStats};
-use super::frame_basis::{cosine_hemisphere, to_world};
-use super::gbuffer::GBuffer;
-use super::integrator::{direct_light, emitted, occlusion_ray, radiance_from, DirectLights};
-use super::material::{GlossyModel, Material};
-use super::progressive::{Integrand, RenderError, RenderJob};
-use super::sampler::{hash_words, PixelSampler};
-use super::scene::{Scene, Surface};
-use super::strategy::{FilterMode, PassContext, PassOutput, Strategy};
+pub use options::IndirectOptions;
+
+use super::mode::FilterMode;
+use crate::pipeline::film::{mean, Tally};
+use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
+use crate::pipeline::job::{Integrand, RenderError, RenderJob};
+use crate::pipeline::strategy::{PassContext, PassOutput, Strategy};
+use crate::render::filter::{FilterKernel, FilterSurface};
+use crate::render::frame_basis::{cosine_hemisphere, to_world};
+use crate::render::gbuffer::GBuffer;
+use crate::render::integrator::{direct_light, emitted, occlusion_ray, radiance_from, DirectLights};
+use crate::render::material::{GlossyModel, Material};
+use crate::render::sampler::{hash_words, PixelSampler};
+use crate::render::scene::{Scene, Surface};
 use glam::Vec3;
-use params::{clamp_samples, filter_width, gamma_glossy, omega_h_glossy, sample_count, IndirectConstants, Reflectors};
+use params::{clamp_samples, filter_width, gamma_glossy, omega_h_glossy, sample_count, Reflectors};
 use rayon::prelude::*;
+use std::sync::Arc;
 use std::time::Instant;
-
-/// Parameters; the defaults are the paper's (Sec. 4-6).
-#[derive(Clone, Debug, PartialEq)]
-pub struct IndirectOptions {
-    pub constants: IndirectConstants,
-    /// Filter scale of passes 0 and 1; pass k >= 1 uses mu0 * 2^(k-1) (the paper renders its
-    /// images at 0.9).
-    pub mu0: f64,
-    /// Samples per pixel of pass 0 (Sec. 5: 16, stratified 4 x 4 by the Sobol sampler).
-    pub initial_samples: u32,
-    /// Multiplies the filter's standard deviation (1: the paper; 0.25: the authors' code).
-    pub kernel_scale: f64,
-    /// Divide the projected pixel size by |n . view| (the paper's d "accounts for
-    /// foreshortening", footnote 7). Off by default, as in the authors' code and methods.md
-    /// §0.1: the filter is isotropic, and a foreshortened d (the footprint's long axis) would
-    /// keep it several pixels wide across the short axis of grazing surfaces at any mu, so the
-    /// stream would not converge to the per-pixel mean there.
-    pub foreshortening: bool,
-    /// 10-degree normal threshold (Sec. 6), world distances, radius up to 50 pixels.
-    pub filter: FilterOptions,
-    /// Filter width in pixels of the `uniform-filtered` baseline.
-    pub fixed_filter_px: f64,
-}
-
-impl Default for IndirectOptions {
-    fn default() -> Self {
-        IndirectOptions {
-            constants: IndirectConstants::default(),
-            mu0: 0.9,
-            initial_samples: 16,
-            kernel_scale: 1.0,
-            foreshortening: false,
-            filter: FilterOptions {
-                max_normal_angle_deg: 10.0,
-                object_id_check: false,
-                max_radius: 50,
-                tangent_plane: false,
-            },
-            fixed_filter_px: 4.0,
-        }
-    }
-}
 
 /// The running sums of one component (diffuse or glossy) of one pixel.
 #[derive(Clone, Copy, Debug, Default)]
@@ -174,7 +137,8 @@ pub struct IndirectStrategy {
     glossy: bool,
     width: usize,
     height: usize,
-    gbuffer: Option<GBuffer>,
+    /// The render's shared G-buffer (`PassContext::gbuffer`), from pass 0 on.
+    gbuffer: Option<Arc<GBuffer>>,
     /// The filter's view of the G-buffer (world positions), built once per render; None for
     /// `adaptive`, which does not filter.
     surface: Option<FilterSurface>,
@@ -200,8 +164,8 @@ impl IndirectStrategy {
             opts: job.indirect.clone(),
             owns_direct: owns_direct && !ao,
             glossy,
-            width: job.scene.width() as usize,
-            height: job.scene.height() as usize,
+            width: job.width() as usize,
+            height: job.height() as usize,
             gbuffer: None,
             surface: None,
             sums: Vec::new(),
@@ -229,15 +193,15 @@ impl IndirectStrategy {
         }
     }
 
-    /// mu of pass `pass` (passes 0 and 1 share mu0).
+    /// mu of pass `pass`: passes 0 (the preview), 1 (the initial samples completed) and 2
+    /// share mu0; pass k >= 2 uses mu0 * 2^(k-2).
     fn mu(&self, pass: u32) -> f64 {
-        self.opts.mu0 * 2f64.powi(pass.saturating_sub(1).min(60) as i32)
+        self.opts.mu0 * 2f64.powi(pass.saturating_sub(2).min(60) as i32)
     }
 
-    fn setup(&mut self, scene: &Scene) {
-        let g = GBuffer::build(scene);
-        self.rays += (self.width * self.height) as u64;
-        self.d = g.pixel_sizes(scene.camera.position, self.opts.foreshortening);
+    fn setup(&mut self, ctx: &PassContext) {
+        let g = Arc::clone(ctx.gbuffer());
+        self.d = g.pixel_sizes(ctx.view.position, self.opts.foreshortening);
         self.sums = vec![PixelSums::default(); self.width * self.height];
         // The surface is the filter's own work: it counts in the method's seconds.
         let t = Instant::now();
@@ -271,8 +235,9 @@ impl IndirectStrategy {
     /// Samples each pixel should have of each component after pass `pass`: (diffuse, glossy).
     fn targets(&self, scene: &Scene, pass: u32) -> Vec<(u32, u32)> {
         let initial = self.opts.initial_samples.max(1);
-        if pass == 0 {
-            return vec![(initial, if self.glossy { initial } else { 0 }); self.sums.len()];
+        if pass <= 1 {
+            let n = if pass == 0 { self.opts.preview_samples.clamp(1, initial) } else { initial };
+            return vec![(n, if self.glossy { n } else { 0 }); self.sums.len()];
         }
         let mu = self.mu(pass);
         let floor = (initial as f64 * (mu / self.opts.mu0).max(1.0)).ceil() as u32;
@@ -284,7 +249,7 @@ impl IndirectStrategy {
                 let count = |part: Part| -> u32 {
                     let have = part.of(s).n;
                     if self.mode == FilterMode::UniformFiltered {
-                        return initial.saturating_mul(1u32 << pass.min(20)).max(have);
+                        return initial.saturating_mul(1u32 << (pass - 1).min(20)).max(have);
                     }
                     let Some(r) = self.reflectors(scene, p, part) else { return floor.max(have) };
                     let c = &self.opts.constants;
@@ -332,8 +297,8 @@ impl IndirectStrategy {
                     // With pixel centres, the pass's samples share one camera ray.
                     let centre = (job.pixel_centers && (px.diffuse.n < nd || px.glossy.n < ns)).then(|| {
                         rays += 1;
-                        let dir = scene.camera.direction(x as f32 + 0.5, y as f32 + 0.5);
-                        (dir, scene.intersect(scene.camera.position, dir, 0.0))
+                        let dir = job.view.direction(x as f32 + 0.5, y as f32 + 0.5);
+                        (dir, scene.intersect(job.view.position, dir, 0.0))
                     });
                     while px.diffuse.n < nd || px.glossy.n < ns {
                         let mut sampler = PixelSampler::new(seed, (y * w + x) as u32, px.taken);
@@ -436,12 +401,13 @@ impl IndirectStrategy {
 impl Strategy for IndirectStrategy {
     fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError> {
         if ctx.pass == 0 {
-            self.setup(ctx.scene);
+            self.setup(ctx);
         }
         let t = Instant::now();
         let targets = self.targets(ctx.scene, ctx.pass);
         self.method_seconds += t.elapsed().as_secs_f64();
-        let complete = self.trace(ctx, &targets, ctx.pass == 0)?;
+        // The initial samples (the preview's and pass 1's) record the reflector distances.
+        let complete = self.trace(ctx, &targets, ctx.pass <= 1)?;
         let t = Instant::now();
         let mut frame = self.frame(ctx.scene, ctx.pass);
         self.method_seconds += t.elapsed().as_secs_f64();
@@ -462,7 +428,7 @@ struct Sample<'a> {
     scene: &'a Scene,
     job: &'a RenderJob,
     owns_direct: bool,
-    /// Record the cosine rays' hit distances (pass 0).
+    /// Record the cosine rays' hit distances (passes 0 and 1).
     record_z: bool,
     /// Whether the diffuse and the glossy component take this sample.
     want: (bool, bool),
@@ -473,7 +439,7 @@ struct Sample<'a> {
 impl Sample<'_> {
     /// Traces the sample into `px`. Returns (rays, dropped).
     fn run(&self, x: usize, y: usize, sampler: &mut PixelSampler, px: &mut PixelSums) -> (u64, u64) {
-        let (scene, cam) = (self.scene, &self.scene.camera);
+        let (scene, cam) = (self.scene, &self.job.view);
         let j = sampler.next_2d();
         let (dir, hit, mut rays) = match self.centre {
             Some((dir, hit)) => (dir, hit, 0u64),

@@ -1,9 +1,8 @@
 //! Per-pixel running estimates (f64 sums) and the parallel loop that adds samples to them.
-use super::integrator::sample_from;
-use super::progressive::{RenderError, RenderJob};
-use super::sampler::PixelSampler;
-use super::scene::Scene;
-use super::strategy::StopCheck;
+use super::job::{RenderError, RenderJob, StopCheck};
+use crate::render::integrator::sample_from;
+use crate::render::sampler::PixelSampler;
+use crate::render::scene::Scene;
 use rayon::prelude::*;
 
 /// Rows per unit of parallel work. Stop requests are checked before every pixel.
@@ -82,7 +81,7 @@ impl Film {
     ) -> Result<Tally, RenderError> {
         let (seed, bounces, integrand, pixel_centers) = (job.seed, job.bounces, job.integrand, job.pixel_centers);
         let w = self.width as usize;
-        let cam = &scene.camera;
+        let cam = &job.view;
         let tallies: Vec<Tally> = self
             .pixels
             .par_chunks_mut(w * BAND_ROWS)

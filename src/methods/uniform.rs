@@ -1,10 +1,10 @@
 //! `uniform`: plain Monte Carlo, the same samples per pixel everywhere, no filter. The baseline
 //! every other method is measured against. Pass 0 takes `initial_spp`; each later pass doubles
 //! the total, so frame k has initial_spp * 2^k samples per pixel (capped at max_mean_spp).
-use super::film::Film;
-use super::frame::{Frame, FrameStats};
-use super::progressive::{RenderError, RenderJob};
-use super::strategy::{PassContext, PassOutput, Strategy};
+use crate::pipeline::film::Film;
+use crate::pipeline::frame::{Frame, FrameStats};
+use crate::pipeline::job::{RenderError, RenderJob};
+use crate::pipeline::strategy::{PassContext, PassOutput, Strategy};
 
 pub struct Uniform {
     film: Film,
@@ -16,7 +16,7 @@ pub struct Uniform {
 
 impl Uniform {
     pub fn new(job: &RenderJob) -> Self {
-        Uniform { film: Film::new(job.scene.width(), job.scene.height()), spp: 0, rays: 0, dropped: 0 }
+        Uniform { film: Film::new(job.width(), job.height()), spp: 0, rays: 0, dropped: 0 }
     }
 
     /// Samples per pixel to add in `pass`.

@@ -6,10 +6,10 @@
 //! has (`strategy::component_names` order) `spp.<component>` (1) and `filter_width.<component>` (1). When
 //! that leaves nothing, `color` alone. Pixels are row-major, channels interleaved, little-endian
 //! f32 or f16.
+use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats, HaltReason};
 use crate::proto::{
     self, render_update, FrameChunk, FrameComplete, OutputSelection, PixelFormat, RenderStarted, RenderUpdate,
 };
-use crate::render::frame::{ComponentMaps, Frame, FrameStats, HaltReason};
 use half::f16;
 use std::fmt;
 
@@ -242,6 +242,8 @@ pub fn frame_complete(stats: &FrameStats) -> FrameComplete {
         halt_reason: halt_reason_to_proto(stats.halt_reason) as i32,
         dropped_samples: stats.dropped_samples,
         method_seconds: stats.method_seconds,
+        pass_complete: stats.pass_complete,
+        estimated_relative_error: stats.estimated_error.unwrap_or(0.0),
     }
 }
 
@@ -251,6 +253,7 @@ pub fn halt_reason_to_proto(reason: HaltReason) -> proto::HaltReason {
         HaltReason::MaxPasses => proto::HaltReason::MaxPasses,
         HaltReason::MaxSpp => proto::HaltReason::MaxSpp,
         HaltReason::TimeBudget => proto::HaltReason::TimeBudget,
+        HaltReason::NoiseTarget => proto::HaltReason::NoiseTarget,
     }
 }
 
@@ -259,6 +262,7 @@ pub fn halt_reason_from_proto(reason: i32) -> HaltReason {
         Ok(proto::HaltReason::MaxPasses) => HaltReason::MaxPasses,
         Ok(proto::HaltReason::MaxSpp) => HaltReason::MaxSpp,
         Ok(proto::HaltReason::TimeBudget) => HaltReason::TimeBudget,
+        Ok(proto::HaltReason::NoiseTarget) => HaltReason::NoiseTarget,
         Ok(proto::HaltReason::None) | Err(_) => HaltReason::None,
     }
 }
@@ -517,6 +521,8 @@ impl FrameAssembler {
                 halt_reason: halt_reason_from_proto(fc.halt_reason),
                 dropped_samples: fc.dropped_samples,
                 method_seconds: fc.method_seconds,
+                pass_complete: fc.pass_complete,
+                estimated_error: (fc.estimated_relative_error > 0.0).then_some(fc.estimated_relative_error),
             },
         };
         for (spec, values) in header.layers.iter().zip(partial.values) {

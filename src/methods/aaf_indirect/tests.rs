@@ -1,7 +1,8 @@
 //! Tests of the indirect strategy on small scenes with fixed seeds (methods.md §2.5).
 use super::*;
+use crate::pipeline::job::{CancelToken, Halt, Method};
+use crate::pipeline::progressive::render;
 use crate::render::light::polygon_irradiance;
-use crate::render::progressive::{render, CancelToken, Halt, Method};
 use crate::scene::{compile, json::parse_scene, SceneLimits};
 use std::sync::Arc;
 
@@ -17,11 +18,19 @@ fn builtin(name: &str, w: u32, h: u32) -> Arc<Scene> {
     Arc::new(compile(&s, &SceneLimits::default(), None).unwrap())
 }
 
+/// `passes` passes after the preview (pass 0) for the AAF family, whose `frames` drop it: frame
+/// k of these tests is pass k + 1 of the render, the k-th frame of the analysis proper.
 fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64, bounces: u32) -> RenderJob {
     RenderJob {
+        view: scene.default_view(),
         scene,
         method,
-        halt: Halt { max_passes: passes, max_mean_spp: 0.0, time_budget: None },
+        halt: Halt {
+            max_passes: passes + (method != Method::Uniform) as u32,
+            max_mean_spp: 0.0,
+            time_budget: None,
+            target_error: None,
+        },
         seed,
         bounces,
         initial_spp: 1,
@@ -32,10 +41,13 @@ fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64, bounces: u32) 
     }
 }
 
+/// The frames of `j`, without the AAF family's preview (see `job`).
 fn frames(j: &RenderJob) -> Vec<Frame> {
     let mut out = Vec::new();
     render(j, &CancelToken::new(), &mut |f| {
-        out.push(f.clone());
+        if j.method == Method::Uniform || f.stats.pass > 0 {
+            out.push(f.clone());
+        }
         true
     })
     .expect("render");
@@ -183,7 +195,7 @@ fn ambient_occlusion_matches_the_closed_form_next_to_a_wall() {
         [Vec3::new(1.0, 0.0, -3.0), Vec3::new(1.0, 1.0, -3.0), Vec3::new(1.0, 1.0, 3.0), Vec3::new(1.0, 0.0, 3.0)]
             // The internal frame centres the bounds (-3, 0, -3)..(1, 1, 3) at the origin.
             .map(|p| (p - Vec3::new(-1.0, 0.5, 0.0)) * k);
-    let g = GBuffer::build(&s);
+    let g = GBuffer::build(&s, &s.default_view());
     // Open fraction = 1 - (cosine-weighted solid angle of the wall) / pi.
     let exact: Vec<Option<f64>> = g
         .pixels
@@ -221,7 +233,7 @@ fn ambient_occlusion_matches_the_closed_form_next_to_a_wall() {
     let mut j = job(floor_and_wall(), Method::Aaf, 2, 4, 0);
     j.integrand = Integrand::AmbientOcclusion { max_distance: 1e-3 };
     let f = frames(&j).pop().unwrap();
-    let g = GBuffer::build(&j.scene);
+    let g = GBuffer::build(&j.scene, &j.view);
     for (p, c) in f.color.iter().enumerate() {
         if g.pixels[p].is_valid() && g.pixels[p].position.x < 0.0 {
             assert!((c[0] - 1.0).abs() < 1e-6, "pixel {p}: {}", c[0]);

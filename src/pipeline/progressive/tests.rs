@@ -1,10 +1,14 @@
 //! Tests of the pass loop on a small analytic-ish scene.
 use super::*;
+use crate::pipeline::job::{Halt, Method};
 use crate::render::light::{EmissionProfile, RectLight};
 use crate::render::material::Material;
+use crate::render::scene::Scene;
 use crate::render::scene::{CameraDesc, SceneBuilder};
 use crate::render::texture::Texture;
 use glam::Vec3;
+use std::sync::Arc;
+use std::time::Duration;
 
 /// A box-like room: floor, back wall, a small occluder and a square light.
 pub(crate) fn small_scene(width: u32, height: u32) -> Arc<Scene> {
@@ -37,6 +41,7 @@ pub(crate) fn small_scene(width: u32, height: u32) -> Arc<Scene> {
 
 fn job(scene: Arc<Scene>, halt: Halt) -> RenderJob {
     RenderJob {
+        view: scene.default_view(),
         scene,
         method: Method::Uniform,
         halt,
@@ -62,7 +67,7 @@ fn frames(job: &RenderJob) -> Vec<Frame> {
 
 #[test]
 fn passes_refine_with_non_decreasing_spp_and_halt_on_max_passes() {
-    let j = job(small_scene(16, 12), Halt { max_passes: 4, max_mean_spp: 0.0, time_budget: None });
+    let j = job(small_scene(16, 12), Halt { max_passes: 4, max_mean_spp: 0.0, time_budget: None, target_error: None });
     let f = frames(&j);
     assert_eq!(f.len(), 4);
     for (k, fr) in f.iter().enumerate() {
@@ -78,7 +83,7 @@ fn passes_refine_with_non_decreasing_spp_and_halt_on_max_passes() {
 
 #[test]
 fn max_spp_halts_exactly_at_the_requested_count() {
-    let j = job(small_scene(8, 8), Halt { max_passes: 100, max_mean_spp: 10.0, time_budget: None });
+    let j = job(small_scene(8, 8), Halt { max_passes: 100, max_mean_spp: 10.0, time_budget: None, target_error: None });
     let f = frames(&j);
     let last = f.last().unwrap();
     assert_eq!(last.stats.mean_spp, 10.0);
@@ -87,17 +92,22 @@ fn max_spp_halts_exactly_at_the_requested_count() {
 
 #[test]
 fn time_budget_halts_after_at_least_one_frame() {
-    let j = job(small_scene(8, 8), Halt { max_passes: 1000, max_mean_spp: 0.0, time_budget: Some(Duration::ZERO) });
+    let j = job(
+        small_scene(8, 8),
+        Halt { max_passes: 1000, max_mean_spp: 0.0, time_budget: Some(Duration::ZERO), target_error: None },
+    );
     let f = frames(&j);
     assert_eq!(f.len(), 1);
     assert_eq!(f[0].stats.halt_reason, HaltReason::TimeBudget);
-    // The budget was over before the first pixel: a partial (here empty) first frame.
-    assert_eq!(f[0].stats.mean_spp, 0.0);
+    // The budget was over before the first pixel, and the first frame is still complete.
+    assert_eq!(f[0].stats.mean_spp, 1.0);
+    assert!(f[0].stats.pass_complete);
+    assert!(f[0].spp.iter().all(|&s| s == 1.0));
 }
 
 #[test]
 fn image_is_bit_identical_whatever_the_thread_count() {
-    let j = job(small_scene(20, 14), Halt { max_passes: 3, max_mean_spp: 0.0, time_budget: None });
+    let j = job(small_scene(20, 14), Halt { max_passes: 3, max_mean_spp: 0.0, time_budget: None, target_error: None });
     let run = |threads| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         pool.install(|| frames(&j)).pop().unwrap()
@@ -115,7 +125,7 @@ fn image_is_bit_identical_whatever_the_thread_count() {
 
 #[test]
 fn cancellation_stops_the_render() {
-    let j = job(small_scene(8, 8), Halt { max_passes: 50, max_mean_spp: 0.0, time_budget: None });
+    let j = job(small_scene(8, 8), Halt { max_passes: 50, max_mean_spp: 0.0, time_budget: None, target_error: None });
     let cancel = CancelToken::new();
     let mut seen = 0;
     let r = render(&j, &cancel, &mut |_| {
@@ -135,10 +145,10 @@ fn cancellation_stops_the_render() {
 fn more_samples_converge_towards_a_reference() {
     // RMSE against a 256 spp render (another seed) falls as passes add samples.
     let scene = small_scene(12, 10);
-    let mut rj = job(scene.clone(), Halt { max_passes: 9, max_mean_spp: 256.0, time_budget: None });
+    let mut rj = job(scene.clone(), Halt { max_passes: 9, max_mean_spp: 256.0, time_budget: None, target_error: None });
     rj.seed = 1234;
     let reference = frames(&rj).pop().unwrap();
-    let f = frames(&job(scene, Halt { max_passes: 6, max_mean_spp: 0.0, time_budget: None }));
+    let f = frames(&job(scene, Halt { max_passes: 6, max_mean_spp: 0.0, time_budget: None, target_error: None }));
     let rmse = |fr: &Frame| {
         let se: f64 = fr
             .color
@@ -181,7 +191,7 @@ fn non_finite_samples_are_counted_and_dropped() {
         Vec3::splat(f32::INFINITY),
         EmissionProfile::Uniform,
     ));
-    let j = job(Arc::new(b.build()), Halt { max_passes: 50, max_mean_spp: 4.0, time_budget: None });
+    let j = job(Arc::new(b.build()), Halt { max_passes: 50, max_mean_spp: 4.0, time_budget: None, target_error: None });
     let f = frames(&j);
     let last = f.last().unwrap();
     assert!(last.stats.dropped_samples > 0);

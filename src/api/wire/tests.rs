@@ -32,6 +32,8 @@ fn test_frame(width: u32, height: u32) -> Frame {
             halt_reason: HaltReason::MaxPasses,
             dropped_samples: 2,
             method_seconds: 0.01,
+            pass_complete: true,
+            estimated_error: Some(0.03),
         },
     }
 }

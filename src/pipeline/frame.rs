@@ -8,7 +8,11 @@ pub enum HaltReason {
     None,
     MaxPasses,
     MaxSpp,
+    /// The time budget ended the render; `FrameStats::pass_complete` says whether the last
+    /// pass got all its samples.
     TimeBudget,
+    /// The render's own estimate of its relative RMSE reached the target.
+    NoiseTarget,
 }
 
 /// Numbers describing one frame of a progressive render.
@@ -26,6 +30,12 @@ pub struct FrameStats {
     pub dropped_samples: u64,
     /// Seconds spent so far in the method's own work (sample rates, filter), not in tracing.
     pub method_seconds: f64,
+    /// Whether every pixel got this pass's samples (false when the deadline cut the pass: the
+    /// frame still estimates every pixel, some with the samples of the passes before).
+    pub pass_complete: bool,
+    /// The render's own estimate of this frame's relative RMSE (`pipeline::noise`); None for
+    /// the first frame, which has nothing to compare with.
+    pub estimated_error: Option<f64>,
 }
 
 /// One progressively refined frame. Pixels are row-major, top row first.

@@ -1,9 +1,10 @@
 //! Tests of the AAF strategy on small scenes with fixed seeds.
 use super::*;
-use crate::render::frame::Frame;
-use crate::render::progressive::{render, CancelToken, Halt, Method};
+use crate::pipeline::frame::Frame;
+use crate::pipeline::job::StopCheck;
+use crate::pipeline::job::{CancelToken, Halt, Method};
+use crate::pipeline::progressive::render;
 use crate::render::scene::{CameraDesc, SceneBuilder};
-use crate::render::strategy::StopCheck;
 use crate::render::texture::Texture;
 use glam::Vec2;
 use std::sync::Arc;
@@ -47,11 +48,19 @@ fn shadow_scene(w: u32, h: u32, scale: f32, profile: EmissionProfile, lights: us
     Arc::new(b.build())
 }
 
+/// `passes` passes after the preview (pass 0) for the AAF family, whose `frames` drop it: frame
+/// k of these tests is pass k + 1 of the render, the k-th frame of the analysis proper.
 fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64) -> RenderJob {
     RenderJob {
+        view: scene.default_view(),
         scene,
         method,
-        halt: Halt { max_passes: passes, max_mean_spp: 0.0, time_budget: None },
+        halt: Halt {
+            max_passes: passes + (method != Method::Uniform) as u32,
+            max_mean_spp: 0.0,
+            time_budget: None,
+            target_error: None,
+        },
         seed,
         bounces: 0,
         initial_spp: 1,
@@ -62,10 +71,13 @@ fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64) -> RenderJob {
     }
 }
 
+/// The frames of `j`, without the AAF family's preview (see `job`).
 fn frames(j: &RenderJob) -> Vec<Frame> {
     let mut out = Vec::new();
     render(j, &CancelToken::new(), &mut |f| {
-        out.push(f.clone());
+        if j.method == Method::Uniform || f.stats.pass > 0 {
+            out.push(f.clone());
+        }
         true
     })
     .expect("render");
@@ -184,7 +196,7 @@ fn each_light_has_its_own_counts_and_they_add_up() {
     assert!(two[0].spp.iter().all(|&s| s == 18.0));
     let strategy = ShadowStrategy::new(
         &job(shadow_scene(4, 4, 1.0, EmissionProfile::Gaussian, 2, 0.6), Method::Aaf, 1, 2),
-        crate::render::strategy::FilterMode::Aaf,
+        FilterMode::Aaf,
     );
     assert_eq!(strategy.lights.len(), 2);
 }
@@ -269,8 +281,15 @@ fn scenes_without_area_lights_render_as_uniform() {
     );
     b.lights.push(Light::Point(crate::render::light::PointLight { position: Vec3::Y, intensity: Vec3::ONE }));
     let scene = Arc::new(b.build());
-    let a = frames(&job(scene.clone(), Method::Aaf, 2, 1));
+    // With no part to analyse there is no preview either: the same passes as `uniform`.
+    let mut a = Vec::new();
+    render(&job(scene.clone(), Method::Aaf, 1, 1), &CancelToken::new(), &mut |f| {
+        a.push(f.clone());
+        true
+    })
+    .expect("render");
     let u = frames(&job(scene, Method::Uniform, 2, 1));
+    assert_eq!(a.len(), 2);
     assert_eq!(a[1].color, u[1].color);
 }
 
@@ -289,7 +308,7 @@ fn smooth_shaded_silhouettes_converge_to_the_ground_truth() {
     rj.halt.max_mean_spp = 1024.0;
     let reference = frames(&rj).pop().unwrap();
     let adaptive = frames(&job(scene.clone(), Method::Adaptive, 5, 1)).pop().unwrap();
-    let g = GBuffer::build(&scene);
+    let g = GBuffer::build(&scene, &scene.default_view());
     let arch = g.pixels.iter().map(|p| p.object).max().unwrap_or(0);
     let (mut se, mut bias, mut n) = (0.0f64, 0.0f64, 0);
     for (i, p) in g.pixels.iter().enumerate() {
@@ -400,10 +419,12 @@ fn jittered_samples_compute_r_only_up_to_the_antialiasing_count() {
         j.pixel_centers = centres;
         let mut st = ShadowStrategy::new(&j, FilterMode::Aaf);
         let stop = StopCheck { cancel: CancelToken::new(), deadline: None };
-        for pass in 0..3 {
-            st.run_pass(&PassContext { scene: &j.scene, job: &j, pass, stop: &stop }).expect("pass");
+        let g = Arc::new(GBuffer::build(&j.scene, &j.view));
+        for pass in 0..4 {
+            st.run_pass(&PassContext { scene: &j.scene, job: &j, view: &j.view, pass, stop: &stop, gbuffer: Some(&g) })
+                .expect("pass");
         }
-        let floor = st.floor(2);
+        let floor = st.floor(3);
         let beyond = st.sums.iter().filter(|s| s.n > floor).count();
         assert!(beyond > 10, "only {beyond} pixels above the floor");
         for s in &st.sums {
@@ -428,7 +449,11 @@ fn the_fill_averages_the_occluded_pixels_within_its_radius() {
     let j = job(scene, Method::Aaf, 1, 5);
     let mut st = ShadowStrategy::new(&j, FilterMode::Aaf);
     let stop = StopCheck { cancel: CancelToken::new(), deadline: None };
-    st.run_pass(&PassContext { scene: &j.scene, job: &j, pass: 0, stop: &stop }).expect("pass");
+    let g = Arc::new(GBuffer::build(&j.scene, &j.view));
+    for pass in 0..2 {
+        st.run_pass(&PassContext { scene: &j.scene, job: &j, view: &j.view, pass, stop: &stop, gbuffer: Some(&g) })
+            .expect("pass");
+    }
     let (w, h, nl, r) = (st.width as i64, st.height as i64, st.lights.len(), st.opts.fill_radius as i64);
     let (mut own, mut filled, mut none) = (0, 0, 0);
     for y in 0..h {

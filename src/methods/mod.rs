@@ -1,0 +1,7 @@
+//! The methods, one folder (or file) per paper's method; `pipeline::registry` lists them. Each
+//! implements `pipeline::strategy::Strategy` over the core (`render`).
+pub mod aaf_indirect;
+pub mod aaf_shadows;
+pub mod mode;
+pub mod parts;
+pub mod uniform;

@@ -1,0 +1,143 @@
+//! What every layer of a render shares: the job, its view, its halt conditions, the cancel token
+//! and the stop check, and the render error. The leaf of the pipeline: it imports only the core
+//! (`render`) and the methods' option types (plain data, `methods::*::options`), so that
+//! strategies, the pass loop, the runner and the front ends can all import it downwards.
+use crate::methods::aaf_indirect::options::IndirectOptions;
+use crate::methods::aaf_shadows::options::AafOptions;
+use crate::render::camera::Camera;
+pub use crate::render::integrator::Integrand;
+use crate::render::scene::Scene;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Shared flag that stops a render within one pixel's work.
+#[derive(Clone, Debug, Default)]
+pub struct CancelToken(Arc<AtomicBool>);
+
+impl CancelToken {
+    pub fn new() -> Self {
+        Self::default()
+    }
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
+/// Halt conditions; the render stops at whichever is met first. Every render yields at least
+/// one frame, and every frame is complete: the first pass always finishes (it is made cheap
+/// enough to), and a later pass cut by the deadline ends in a valid estimate of every pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Halt {
+    pub max_passes: u32,
+    pub max_mean_spp: f64,
+    pub time_budget: Option<Duration>,
+    /// Stop once the render's own estimate of the image's relative RMSE falls to this value
+    /// (`pipeline::noise`); `None`: no noise target.
+    pub target_error: Option<f64>,
+}
+
+impl Halt {
+    /// Only a pass count.
+    pub fn passes(max_passes: u32) -> Halt {
+        Halt { max_passes, max_mean_spp: f64::INFINITY, time_budget: None, target_error: None }
+    }
+}
+
+/// The methods; `pipeline::registry` has one row for each (names, parts, constructor).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Method {
+    Uniform,
+    Aaf,
+    Adaptive,
+    UniformFiltered,
+}
+
+/// One render: the compiled scene, the view it is seen from, the method and its options.
+#[derive(Clone, Debug)]
+pub struct RenderJob {
+    pub scene: Arc<Scene>,
+    /// Camera and resolution, in the scene's internal frame (`Scene::view`).
+    pub view: Camera,
+    pub method: Method,
+    pub halt: Halt,
+    pub seed: u64,
+    /// Indirect bounces after the first hit (0: direct light only).
+    pub bounces: u32,
+    /// Samples per pixel of the first uniform pass.
+    pub initial_spp: u32,
+    /// Light or ambient occlusion.
+    pub integrand: Integrand,
+    /// Shade every sample at its pixel's centre (the AAF papers' setting, no antialiasing):
+    /// the ground truth is then the pixel-centre image. Default: samples jittered over the pixel.
+    pub pixel_centers: bool,
+    /// Parameters of the AAF family of methods (soft shadows).
+    pub aaf: AafOptions,
+    /// Parameters of the AAF family of methods (indirect light).
+    pub indirect: IndirectOptions,
+}
+
+impl RenderJob {
+    /// A job of `method` on `scene` from its own camera, with every other setting at its
+    /// default: direct light, 1 initial spp, jittered pixels, seed 0.
+    pub fn new(scene: Arc<Scene>, method: Method, halt: Halt) -> RenderJob {
+        RenderJob {
+            view: scene.default_view(),
+            scene,
+            method,
+            halt,
+            seed: 0,
+            bounces: 0,
+            initial_spp: 1,
+            integrand: Integrand::Radiance,
+            pixel_centers: false,
+            aaf: AafOptions::default(),
+            indirect: IndirectOptions::default(),
+        }
+    }
+
+    pub fn width(&self) -> u32 {
+        self.view.width
+    }
+
+    pub fn height(&self) -> u32 {
+        self.view.height
+    }
+
+    pub fn pixel_count(&self) -> usize {
+        self.view.width as usize * self.view.height as usize
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum RenderError {
+    #[error("render cancelled")]
+    Cancelled,
+}
+
+/// Tells a pass when to stop early: on cancellation (the render ends) or at the time-budget
+/// deadline (the pass ends with the samples it has, and its frame becomes the final one).
+#[derive(Clone, Debug)]
+pub struct StopCheck {
+    pub cancel: CancelToken,
+    pub deadline: Option<Instant>,
+}
+
+impl StopCheck {
+    /// A check that only a cancellation trips: for the first pass, which always completes.
+    pub fn cancel_only(cancel: &CancelToken) -> StopCheck {
+        StopCheck { cancel: cancel.clone(), deadline: None }
+    }
+
+    #[inline]
+    pub fn should_stop(&self) -> bool {
+        self.cancel.is_cancelled() || self.deadline.is_some_and(|d| Instant::now() >= d)
+    }
+
+    pub fn is_cancelled(&self) -> bool {
+        self.cancel.is_cancelled()
+    }
+}

@@ -1,0 +1,133 @@
+//! The render's own estimate of its error, behind the noise-target halt (`Halt::target_error`),
+//! for every method alike: from the difference between consecutive frames.
+//!
+//! Frame k+1 holds frame k's samples plus new ones. For a pixel whose unbiased estimate goes
+//! from n to n' samples, the difference D = f_k - f_{k+1} has variance s^2 (1/n - 1/n'), while
+//! frame k+1's own error has s^2 / n'. So its squared error is D^2 n / (n' - n): for a doubling
+//! of samples, just D^2. A filtered method's error also holds bias, which shrinks as its
+//! filter narrows from pass to pass; the difference sees that change too (for a bias that
+//! halves per pass, D equals the newer frame's bias). A pixel that got no new samples counts
+//! with D^2 alone.
+//!
+//! The relative RMSE is sqrt(mean over pixels and channels of the squared error) divided by the
+//! mean over pixels and channels of the newer frame: one number for the image, stable where
+//! the image is dark (unlike a per-pixel relative error). `wedge bench noise` checks it against
+//! the true error on built-in scenes (BENCHMARKS.md).
+use super::frame::Frame;
+
+/// Keeps the previous frame to compare the next one with.
+#[derive(Default)]
+pub struct ErrorEstimate {
+    previous: Option<(Vec<[f32; 3]>, Vec<f32>)>,
+}
+
+impl ErrorEstimate {
+    /// The estimated relative RMSE of `frame` (None for the first frame, or an image whose
+    /// mean is not positive), remembering `frame` for the next call.
+    pub fn update(&mut self, frame: &Frame) -> Option<f64> {
+        let estimate = self.previous.as_ref().and_then(|(color, spp)| relative_error(color, spp, frame));
+        self.previous = Some((frame.color.clone(), frame.spp.clone()));
+        estimate
+    }
+}
+
+/// The estimated relative RMSE of `next`, which adds samples to the frame of `color` and `spp`.
+pub fn relative_error(color: &[[f32; 3]], spp: &[f32], next: &Frame) -> Option<f64> {
+    if color.len() != next.color.len() || color.is_empty() {
+        return None;
+    }
+    let (mut sq, mut sum) = (0.0f64, 0.0f64);
+    for (p, (a, b)) in color.iter().zip(&next.color).enumerate() {
+        let (n0, n1) = (spp.get(p).copied().unwrap_or(0.0) as f64, next.spp.get(p).copied().unwrap_or(0.0) as f64);
+        let weight = if n1 > n0 && n0 > 0.0 { n0 / (n1 - n0) } else { 1.0 };
+        for c in 0..3 {
+            let d = (a[c] - b[c]) as f64;
+            sq += d * d * weight;
+            sum += b[c] as f64;
+        }
+    }
+    let values = (color.len() * 3) as f64;
+    let mean = sum / values;
+    let rmse = (sq / values).sqrt();
+    (mean > 0.0 && rmse.is_finite()).then(|| rmse / mean)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::test_rng::Rng;
+
+    /// A standard normal deviate (Box-Muller).
+    fn normal(rng: &mut Rng) -> f64 {
+        let (u, v) = (1.0 - rng.f() as f64, rng.f() as f64);
+        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+    }
+
+    /// Frames of nested Monte Carlo means of a known image with known noise: the estimate of
+    /// each frame's error must match its true error.
+    fn nested_frames(counts: &[u32], sigma: f64, seed: u64) -> (Vec<Frame>, Vec<f64>) {
+        let (w, h) = (64usize, 48usize);
+        let truth: Vec<f64> = (0..w * h).map(|p| 0.2 + 0.6 * (p % w) as f64 / w as f64).collect();
+        let mut rng = Rng(seed | 1);
+        let mut sums = vec![0.0f64; w * h];
+        let (mut taken, mut frames, mut errors) = (0u32, Vec::new(), Vec::new());
+        for &n in counts {
+            for (p, s) in sums.iter_mut().enumerate() {
+                for _ in taken..n {
+                    *s += truth[p] + sigma * normal(&mut rng);
+                }
+            }
+            taken = n;
+            let color: Vec<[f32; 3]> = sums.iter().map(|s| [(s / n as f64) as f32; 3]).collect();
+            let sq: f64 = color.iter().zip(&truth).map(|(c, t)| (c[0] as f64 - t).powi(2)).sum::<f64>();
+            let mean: f64 = truth.iter().sum::<f64>() / truth.len() as f64;
+            errors.push((sq / truth.len() as f64).sqrt() / mean);
+            frames.push(Frame {
+                width: w as u32,
+                height: h as u32,
+                color,
+                spp: vec![n as f32; w * h],
+                ..Frame::default()
+            });
+        }
+        (frames, errors)
+    }
+
+    #[test]
+    fn the_estimate_matches_the_true_error_of_nested_monte_carlo_frames() {
+        // Doubling, and uneven steps (1 -> 9 is the AAF family's first two passes).
+        for counts in [&[1u32, 2, 4, 8, 16][..], &[1, 9, 18, 72]] {
+            let (frames, truth) = nested_frames(counts, 0.3, 7);
+            let mut est = ErrorEstimate::default();
+            assert_eq!(est.update(&frames[0]), None, "the first frame has nothing to compare with");
+            for (f, t) in frames[1..].iter().zip(&truth[1..]) {
+                let e = est.update(f).unwrap();
+                assert!((e / t - 1.0).abs() < 0.1, "counts {counts:?}: estimate {e}, true {t}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_halving_bias_is_seen_as_the_newer_frames_bias() {
+        let (w, h) = (16u32, 16u32);
+        let frame = |bias: f32| Frame {
+            width: w,
+            height: h,
+            color: vec![[0.5 + bias; 3]; (w * h) as usize],
+            spp: vec![4.0; (w * h) as usize],
+            ..Frame::default()
+        };
+        let mut est = ErrorEstimate::default();
+        est.update(&frame(0.04));
+        let e = est.update(&frame(0.02)).unwrap();
+        assert!((e - 0.02 / 0.52).abs() < 1e-6, "{e}");
+    }
+
+    #[test]
+    fn a_black_image_has_no_relative_error() {
+        let f = Frame { width: 2, height: 1, color: vec![[0.0; 3]; 2], spp: vec![1.0; 2], ..Frame::default() };
+        let mut est = ErrorEstimate::default();
+        est.update(&f);
+        assert_eq!(est.update(&f), None);
+    }
+}

@@ -1,0 +1,72 @@
+//! The progressive renderer: a render is a sequence of passes; each pass adds samples to the
+//! running per-pixel estimate and yields a complete frame, until a halt condition is met.
+//!
+//! The loop owns what every method shares: the one G-buffer (built before pass 0 for methods
+//! whose registry row asks for it, its rays counted once), the rule that pass 0 always
+//! completes (only a cancellation stops it; every method makes it cheap), the deadline of
+//! later passes (a cut pass still ends in a valid estimate of every pixel), and the render's
+//! own error estimate behind the noise-target halt (`noise`).
+use super::frame::{Frame, FrameStats, HaltReason};
+use super::job::{CancelToken, RenderError, RenderJob, StopCheck};
+use super::noise::ErrorEstimate;
+use super::registry::make_strategy;
+use super::strategy::{PassContext, PassOutput};
+use crate::render::gbuffer::GBuffer;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Runs `job` to a halt condition, calling `on_frame` with each pass's frame (on the calling
+/// thread). `on_frame` returning false stops the render like a cancellation. Work runs on the
+/// current rayon pool (`pool.install` chooses the threads; the image does not depend on them).
+pub fn render(
+    job: &RenderJob,
+    cancel: &CancelToken,
+    on_frame: &mut dyn FnMut(&Frame) -> bool,
+) -> Result<FrameStats, RenderError> {
+    let start = Instant::now();
+    let halt = &job.halt;
+    let deadline = halt.time_budget.map(|b| start + b);
+    let gbuffer = job.method.spec().needs_gbuffer.then(|| Arc::new(GBuffer::build(&job.scene, &job.view)));
+    let gbuffer_rays = gbuffer.as_ref().map_or(0, |g| g.pixels.len() as u64);
+    let mut strategy = make_strategy(job);
+    let mut error = ErrorEstimate::default();
+    for pass in 0.. {
+        if cancel.is_cancelled() {
+            return Err(RenderError::Cancelled);
+        }
+        let stop =
+            if pass == 0 { StopCheck::cancel_only(cancel) } else { StopCheck { cancel: cancel.clone(), deadline } };
+        let ctx = PassContext { scene: &job.scene, job, view: &job.view, pass, stop: &stop, gbuffer: gbuffer.as_ref() };
+        let PassOutput { mut frame, complete } = strategy.run_pass(&ctx)?;
+        let elapsed = start.elapsed();
+        frame.stats.rays_traced += gbuffer_rays;
+        let estimate = error.update(&frame);
+        let reason = if halt.max_mean_spp > 0.0 && frame.stats.mean_spp >= halt.max_mean_spp {
+            HaltReason::MaxSpp
+        } else if pass + 1 >= halt.max_passes.max(1) {
+            HaltReason::MaxPasses
+        } else if halt.target_error.zip(estimate).is_some_and(|(target, e)| e <= target) {
+            HaltReason::NoiseTarget
+        } else if !complete || deadline.is_some_and(|d| Instant::now() >= d) {
+            HaltReason::TimeBudget
+        } else {
+            HaltReason::None
+        };
+        frame.stats.pass = pass;
+        frame.stats.pass_complete = complete;
+        frame.stats.estimated_error = estimate;
+        frame.stats.elapsed_seconds = elapsed.as_secs_f64();
+        frame.stats.is_final = reason != HaltReason::None;
+        frame.stats.halt_reason = reason;
+        if !on_frame(&frame) {
+            return Err(RenderError::Cancelled);
+        }
+        if frame.stats.is_final {
+            return Ok(frame.stats);
+        }
+    }
+    unreachable!("the pass loop only ends by returning")
+}
+
+#[cfg(test)]
+mod tests;
