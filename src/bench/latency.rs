@@ -1,19 +1,19 @@
-//! Latency from a Render request to its first complete frame over gRPC, against a server on
-//! 127.0.0.1 in this process (or a given address).
+//! Latency from a Render request to its first frames over gRPC, against a server on 127.0.0.1
+//! in this process (or a given address).
 use crate::client::connect;
 use crate::proto::{self, render_update::Kind};
 use crate::server::{serve_on, ServerConfig, ServerState};
 use std::time::Instant;
 
 pub struct LatencyReport {
-    /// Seconds from sending the request to receiving the first FrameComplete, per run.
-    pub first_frame: Vec<f64>,
+    /// Per run, the seconds from sending the request to receiving each FrameComplete.
+    pub frames: Vec<Vec<f64>>,
     /// Seconds to open the connection.
     pub connect: f64,
 }
 
 /// Runs `runs` renders of `req` on a fresh in-process server (when `addr` is None) and times
-/// each one's first frame. The first run warms up and is not counted.
+/// each one's frames. The first run warms up and is not counted.
 pub async fn measure(req: proto::RenderRequest, runs: usize, addr: Option<String>) -> anyhow::Result<LatencyReport> {
     let (addr, shutdown) = match addr {
         Some(a) => (a, None),
@@ -34,20 +34,19 @@ pub async fn measure(req: proto::RenderRequest, runs: usize, addr: Option<String
     for run in 0..=runs {
         let start = Instant::now();
         let mut stream = client.render(req.clone()).await?.into_inner();
+        let mut frames = Vec::new();
         while let Some(u) = stream.message().await? {
             if let Some(Kind::FrameComplete(_)) = u.kind {
-                break;
+                frames.push(start.elapsed().as_secs_f64());
             }
         }
-        let dt = start.elapsed().as_secs_f64();
-        drop(stream);
         if run > 0 {
-            times.push(dt);
+            times.push(frames);
         }
     }
     if let Some((tx, server)) = shutdown {
         let _ = tx.send(());
         server.await??;
     }
-    Ok(LatencyReport { first_frame: times, connect: connect_s })
+    Ok(LatencyReport { frames: times, connect: connect_s })
 }

@@ -106,7 +106,7 @@ pub enum BenchKind {
         #[arg(long, default_value = "1.5,16")]
         leaf_cost: String,
     },
-    /// Latency from a Render request to its first frame over gRPC.
+    /// Latency from a Render request to its first five frames over gRPC, per method.
     Latency {
         #[arg(long, default_value = "cornell")]
         scene: String,
@@ -114,8 +114,11 @@ pub enum BenchKind {
         width: u32,
         #[arg(long, default_value_t = 240)]
         height: u32,
-        #[arg(long, default_value_t = 20)]
+        #[arg(long, default_value_t = 10)]
         runs: usize,
+        /// Methods to time (repeatable); default: every method.
+        #[arg(long)]
+        method: Vec<String>,
         /// Use this server instead of one started in-process.
         #[arg(long)]
         addr: Option<String>,
@@ -221,27 +224,49 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        BenchKind::Latency { scene, width, height, runs, addr } => {
-            let req = proto::RenderRequest {
-                scene_source: Some(proto::render_request::SceneSource::Builtin(scene.clone())),
-                width,
-                height,
-                settings: Some(proto::RenderSettings { max_passes: 1, ..Default::default() }),
-                ..Default::default()
+        BenchKind::Latency { scene, width, height, runs, method, addr } => {
+            use crate::pipeline::job::Method;
+            let methods: Vec<Method> = if method.is_empty() {
+                Method::ALL.to_vec()
+            } else {
+                method
+                    .iter()
+                    .map(|m| Method::from_name(m).ok_or_else(|| anyhow::anyhow!("--method: unknown method {m:?}")))
+                    .collect::<anyhow::Result<_>>()?
             };
+            const FRAMES: usize = 5;
             let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
-            let r = rt.block_on(latency::measure(req, runs, addr))?;
-            let mut sorted = r.first_frame.clone();
-            sorted.sort_by(f64::total_cmp);
-            println!("| scene | size | runs | median first frame (ms) | min (ms) | max (ms) | connect (ms) |");
-            println!("|---|---|---|---|---|---|---|");
             println!(
-                "| {scene} | {width}x{height} | {runs} | {:.1} | {:.1} | {:.1} | {:.1} |",
-                median(r.first_frame) * 1e3,
-                sorted.first().copied().unwrap_or(f64::NAN) * 1e3,
-                sorted.last().copied().unwrap_or(f64::NAN) * 1e3,
-                r.connect * 1e3
+                "| scene | size | method | runs | first frame median (ms) | min | max | frames 2-5 median (ms) | connect (ms) |"
             );
+            println!("|---|---|---|---|---|---|---|---|---|");
+            for m in methods {
+                let req = proto::RenderRequest {
+                    scene_source: Some(proto::render_request::SceneSource::Builtin(scene.clone())),
+                    width,
+                    height,
+                    settings: Some(proto::RenderSettings {
+                        method: m.to_proto() as i32,
+                        max_passes: FRAMES as u32,
+                        ..Default::default()
+                    }),
+                    ..Default::default()
+                };
+                let r = rt.block_on(latency::measure(req, runs, addr.clone()))?;
+                let at = |k: usize| r.frames.iter().filter_map(|f| f.get(k).copied()).collect::<Vec<f64>>();
+                let mut first = at(0);
+                first.sort_by(f64::total_cmp);
+                let later: Vec<String> = (1..FRAMES).map(|k| format!("{:.0}", median(at(k)) * 1e3)).collect();
+                println!(
+                    "| {scene} | {width}x{height} | {} | {runs} | {:.1} | {:.1} | {:.1} | {} | {:.1} |",
+                    m.name(),
+                    median(first.clone()) * 1e3,
+                    first.first().copied().unwrap_or(f64::NAN) * 1e3,
+                    first.last().copied().unwrap_or(f64::NAN) * 1e3,
+                    later.join(", "),
+                    r.connect * 1e3
+                );
+            }
             Ok(())
         }
     }

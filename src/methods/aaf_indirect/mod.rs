@@ -345,7 +345,11 @@ impl IndirectStrategy {
                         let valid = g.is_some_and(|g| g.pixels[p].is_valid()) && at(p).surface > 0;
                         let beta = if !valid {
                             0.0
-                        } else if self.mode == FilterMode::UniformFiltered {
+                        } else if self.mode == FilterMode::UniformFiltered || pass == 0 {
+                            // The preview's reflector distances come from the one sample it
+                            // filters: widths that follow each pixel's own sample would weight
+                            // the samples by their values (a short ray, a narrow kernel), which
+                            // biases the mean. Its fixed width depends on geometry alone.
                             self.opts.fixed_filter_px * self.d[p]
                         } else {
                             self.reflectors(scene, p, part)

@@ -201,3 +201,113 @@ fn non_finite_samples_are_counted_and_dropped() {
     // Pixels that only saw the light kept no sample: spp 0 there, and black.
     assert!(last.spp.iter().any(|&s| s < 4.0));
 }
+
+/// A built-in scene compiled at `w` x `h`.
+fn builtin(name: &str, w: u32, h: u32) -> Arc<Scene> {
+    let mut s = crate::scene::builtin::get(name).unwrap();
+    let cam = s.camera.as_mut().unwrap();
+    (cam.width, cam.height) = (w, h);
+    Arc::new(crate::scene::compile(&s, &crate::scene::SceneLimits::default(), None).unwrap())
+}
+
+fn image_mean(f: &Frame) -> f64 {
+    f.color.iter().flatten().map(|&v| v as f64).sum::<f64>() / (3 * f.color.len()) as f64
+}
+
+/// Every frame estimates the whole image, whatever the budget: one that ends inside pass 0
+/// (pass 0 always completes) and one that ends inside a later pass (every pixel keeps at least
+/// the samples it had), for every method, on two built-in scenes. The frame's mean is within
+/// 3% of a high-spp reference's.
+#[test]
+fn frames_cut_by_the_budget_are_complete_for_every_method() {
+    for (name, bounces) in [("cornell", 1), ("grids", 0)] {
+        let scene = builtin(name, 160, 120);
+        let mut rj = job(scene.clone(), Halt::passes(64));
+        (rj.bounces, rj.seed, rj.halt.max_mean_spp) = (bounces, 99, 128.0);
+        let reference = image_mean(frames(&rj).last().unwrap());
+        for method in Method::ALL {
+            let mut j = job(scene.clone(), Halt::passes(64));
+            (j.method, j.bounces) = (method, bounces);
+            // Inside pass 0: the budget is over before the render starts.
+            j.halt.time_budget = Some(Duration::ZERO);
+            let f = frames(&j);
+            assert_eq!(f.len(), 1, "{name} {method:?}");
+            assert!(f[0].stats.pass_complete && f[0].spp.iter().all(|&s| s >= 1.0), "{name} {method:?}");
+            let m = image_mean(&f[0]);
+            assert!((m / reference - 1.0).abs() < 0.03, "{name} {method:?} pass 0: mean {m} vs {reference}");
+            // Inside a later pass: half-way through the pass after the first two, timed on
+            // an uncut run; retried at other fractions should the machine's speed move the cut
+            // onto a pass boundary.
+            j.halt = Halt::passes(3);
+            let mut times = Vec::new();
+            let start = std::time::Instant::now();
+            render(&j, &CancelToken::new(), &mut |_| {
+                times.push(start.elapsed());
+                true
+            })
+            .unwrap();
+            let mut cut = false;
+            for fraction in [0.5, 0.3, 0.7] {
+                j.halt = Halt::passes(64);
+                j.halt.time_budget = Some(times[1] + (times[2] - times[1]).mul_f64(fraction));
+                let last = frames(&j).pop().unwrap();
+                assert_eq!(last.stats.halt_reason, HaltReason::TimeBudget, "{name} {method:?}");
+                assert!(last.spp.iter().all(|&s| s >= 1.0), "{name} {method:?}: a pixel without samples");
+                let m = image_mean(&last);
+                assert!((m / reference - 1.0).abs() < 0.03, "{name} {method:?} cut: mean {m} vs {reference}");
+                if !last.stats.pass_complete {
+                    cut = true;
+                    break;
+                }
+            }
+            assert!(cut, "{name} {method:?}: no budget ended inside a pass");
+        }
+    }
+}
+
+/// One compiled scene renders from any view: two views of one compile are bit-identical to
+/// the same views of two compiles made for them.
+#[test]
+fn views_of_one_compiled_scene_match_separate_compiles() {
+    let base = crate::scene::builtin::get("cornell").unwrap();
+    let shared = Arc::new(crate::scene::compile(&base, &crate::scene::SceneLimits::default(), None).unwrap());
+    for (w, h, dx) in [(24u32, 18u32, 0.0f32), (20, 30, 120.0)] {
+        let mut moved = base.clone();
+        let cam = moved.camera.as_mut().unwrap();
+        (cam.width, cam.height) = (w, h);
+        cam.position.as_mut().unwrap().x += dx;
+        let own = Arc::new(crate::scene::compile(&moved, &crate::scene::SceneLimits::default(), None).unwrap());
+        let mut a = job(own.clone(), Halt::passes(3));
+        a.method = Method::Aaf;
+        let mut b = a.clone();
+        b.scene = shared.clone();
+        b.view = shared.view(&own.default_camera);
+        assert_eq!((b.view.width, b.view.height), (w, h));
+        let (fa, fb) = (frames(&a), frames(&b));
+        assert_eq!(fa.len(), fb.len());
+        for (x, y) in fa.iter().zip(&fb) {
+            assert_eq!(x.color, y.color);
+            assert_eq!(x.spp, y.spp);
+        }
+    }
+}
+
+/// The noise target stops the render once its own estimate reaches it, and a tighter target
+/// takes more samples; the first frame has no estimate.
+#[test]
+fn the_noise_target_halts_the_render() {
+    let scene = small_scene(32, 24);
+    let mut spp = Vec::new();
+    for target in [0.2, 0.05] {
+        let mut j = job(scene.clone(), Halt::passes(20));
+        j.halt.target_error = Some(target);
+        let f = frames(&j);
+        assert_eq!(f[0].stats.estimated_error, None);
+        let last = f.last().unwrap();
+        assert_eq!(last.stats.halt_reason, HaltReason::NoiseTarget, "target {target}");
+        assert!(last.stats.estimated_error.unwrap() <= target);
+        assert!(f[f.len() - 2].stats.estimated_error.is_none_or(|e| e > target));
+        spp.push(last.stats.mean_spp);
+    }
+    assert!(spp[1] >= 8.0 * spp[0], "{spp:?}");
+}
