@@ -65,7 +65,7 @@ def cornell():
                    polygon_mesh("tall_block", "white", tall)],
         "lights": [{"rect": {"corner": v(343, 548.3, 227), "edgeU": v(0, 0, 105), "edgeV": v(-130, 0, 0),
                              "radiance": rgb(18.387, 10.9873, 2.75357)}}],
-        "settings": {"method": "METHOD_UNIFORM", "maxPasses": 8, "bounces": 3},
+        "settings": {"bounces": 3},
     }
 
 
@@ -98,7 +98,7 @@ def cornell_glossy():
                            {"name": "pillar", "material": "gold_gloss",
                             "box": {"min": v(120, 165, 120), "max": v(220, 345, 220)}}],
         "lights": [{"point": {"position": v(278, 500, 279.6), "intensity": rgb(190000, 150000, 110000)}}],
-        "settings": {"method": "METHOD_UNIFORM", "maxPasses": 8, "bounces": 2},
+        "settings": {"bounces": 2},
     }
 
 
@@ -151,7 +151,7 @@ def interior():
         "shapes": shapes,
         "lights": [{"point": {"position": v(3.3, 2.7, 4.0), "intensity": rgb(6, 5.6, 5)}},
                    {"point": {"position": v(7.5, 2.7, 3.0), "intensity": rgb(5, 5, 5.4)}}],
-        "settings": {"method": "METHOD_UNIFORM", "maxPasses": 8, "bounces": 1},
+        "settings": {"bounces": 1},
     }
 
 
@@ -190,7 +190,7 @@ def grids():
         "shapes": shapes,
         "lights": [{"rect": {"corner": v(-1, 6, -1), "edgeU": v(2, 0, 0), "edgeV": v(0, 0, 2),
                              "radiance": rgb(40, 40, 40), "profile": "EMISSION_PROFILE_GAUSSIAN"}}],
-        "settings": {"method": "METHOD_UNIFORM", "maxPasses": 8, "bounces": 0},
+        "settings": {"bounces": 0},
     }
 
 
@@ -243,7 +243,7 @@ def curved():
         # averages 0.732 over the square).
         "lights": [{"rect": {"corner": v(-0.75, 5, -0.75), "edgeU": v(1.5, 0, 0), "edgeV": v(0, 0, 1.5),
                              "radiance": rgb(27, 27, 27), "profile": "EMISSION_PROFILE_GAUSSIAN"}}],
-        "settings": {"method": "METHOD_UNIFORM", "maxPasses": 8, "bounces": 0},
+        "settings": {"bounces": 0},
     }
 
 

@@ -12,6 +12,7 @@ pub mod methods;
 pub mod output;
 pub mod pipeline;
 pub mod render;
+pub mod runner;
 pub mod scene;
 pub mod server;
 

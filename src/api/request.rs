@@ -331,27 +331,40 @@ mod tests {
         assert_eq!(p.job.halt.max_passes, 3);
         assert_eq!(p.job.bounces, 2);
         assert_eq!(p.info.seed, 5);
-        assert_eq!(p.info.method, "uniform");
+        assert_eq!(p.info.method, "aaf");
         assert_eq!(p.info.camera.position, [278.0, 273.0, -800.0]);
     }
 
     #[test]
     fn defaults_and_server_limits_bound_the_halt() {
+        // No halt anywhere (the built-in scenes set none): a noise target within a time
+        // budget, so that every render ends; the product's method.
         let mut req = builtin_req("grids");
         req.settings = Some(proto::RenderSettings { max_passes: 0, ..Default::default() });
         let p = prepare(&req, &Limits::default(), None, "grids").unwrap();
-        assert_eq!(p.job.halt.max_passes, 8); // the scene's own setting
-                                              // No budget asked: the server's time limit still bounds the render.
-        assert_eq!(p.job.halt.time_budget, Some(Duration::from_secs(3600)));
-        // A request's halt conditions replace the scene's as a group; the server's pass limit
-        // still bounds them.
+        assert_eq!(p.job.halt.target_error, Some(DEFAULT_TARGET_ERROR));
+        assert_eq!(p.job.halt.time_budget, Some(Duration::from_secs_f64(DEFAULT_TIME_BUDGET_SECONDS)));
+        assert_eq!(p.job.halt.max_passes, Limits::default().max_passes);
+        assert_eq!(p.job.method, DEFAULT_METHOD);
+        // A server whose time limit is shorter than the default budget bounds it.
+        let short = Limits { max_time_budget_seconds: 5.0, ..Limits::default() };
+        assert_eq!(prepare(&req, &short, None, "grids").unwrap().job.halt.time_budget, Some(Duration::from_secs(5)));
+        // A request's halt conditions replace the defaults as a group; the server's pass and
+        // time limits still bound them.
         req.settings = Some(proto::RenderSettings { time_budget_seconds: 2.0, ..Default::default() });
         let p = prepare(&req, &Limits::default(), None, "grids").unwrap();
         assert_eq!(p.job.halt.time_budget, Some(Duration::from_secs(2)));
-        assert_eq!(p.job.halt.max_passes, Limits::default().max_passes);
+        assert_eq!((p.job.halt.max_passes, p.job.halt.target_error), (Limits::default().max_passes, None));
         req.settings = Some(proto::RenderSettings { max_mean_spp: 256.0, ..Default::default() });
         let p = prepare(&req, &Limits::default(), None, "grids").unwrap();
         assert_eq!((p.job.halt.max_mean_spp, p.job.halt.max_passes), (256.0, 64));
+        assert_eq!(p.job.halt.time_budget, Some(Duration::from_secs(3600)));
+        req.settings = Some(proto::RenderSettings { target_error: 0.05, ..Default::default() });
+        let p = prepare(&req, &Limits::default(), None, "grids").unwrap();
+        assert_eq!(
+            (p.job.halt.target_error, p.job.halt.time_budget),
+            (Some(0.05f32 as f64), Some(Duration::from_secs(3600)))
+        );
     }
 
     #[test]
@@ -384,6 +397,11 @@ mod tests {
         let mut r = builtin_req("cornell");
         r.settings = Some(proto::RenderSettings { max_mean_spp: f32::NAN, ..Default::default() });
         assert_eq!(field_of(r), "settings.max_mean_spp");
+        for bad in [f32::NAN, -0.1, 1.5] {
+            let mut r = builtin_req("cornell");
+            r.settings = Some(proto::RenderSettings { target_error: bad, ..Default::default() });
+            assert_eq!(field_of(r), "settings.target_error");
+        }
         let mut r = builtin_req("cornell");
         r.settings = Some(proto::RenderSettings { method: 99, ..Default::default() });
         assert_eq!(field_of(r), "settings.method");
@@ -428,6 +446,7 @@ mod tests {
             scene_source: Some(proto::render_request::SceneSource::Scene(scene)),
             width: 32,
             height: 24,
+            settings: Some(proto::RenderSettings { method: proto::Method::Uniform as i32, ..Default::default() }),
             ..Default::default()
         };
         let limits = Limits { max_pixels: 1000, ..Limits::default() };

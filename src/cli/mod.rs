@@ -1,4 +1,4 @@
-//! The command line: thin front ends over the library (`job`, `render`, `client`, `output`).
+//! The command line: thin front ends over the library (`api`, `pipeline`, `client`, `output`).
 use clap::{Args, Parser, Subcommand};
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -30,6 +30,8 @@ pub enum Command {
     Client(ClientArgs),
     /// List the built-in scenes.
     Scenes,
+    /// List the methods (the first is the default).
+    Methods,
     /// Benchmarks: ray throughput, first-frame latency.
     Bench(bench::BenchArgs),
 }
@@ -82,7 +84,8 @@ pub struct RenderArgs {
     pub height: Option<u32>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Sampling and filtering method of each pass.
+    /// Sampling and filtering method of each pass: aaf (the default), uniform, adaptive,
+    /// uniform-filtered (`wedge methods` describes them).
     #[arg(long)]
     pub method: Option<String>,
     /// Stop at this mean samples per pixel.
@@ -144,6 +147,15 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Scenes => {
             for s in crate::scene::builtin::list() {
                 println!("{:10} {}", s.name, s.description);
+            }
+            Ok(())
+        }
+        Command::Methods => {
+            use crate::pipeline::registry::{DEFAULT_METHOD, METHODS};
+            let rows =
+                std::iter::once(DEFAULT_METHOD.spec()).chain(METHODS.iter().filter(|m| m.method != DEFAULT_METHOD));
+            for m in rows {
+                println!("{:17} {}", m.name, m.summary);
             }
             Ok(())
         }

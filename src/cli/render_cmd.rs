@@ -3,7 +3,7 @@ use super::request::{build_request, resolve_scene, FrameWriter};
 use super::RenderArgs;
 use crate::api::request::{prepare, Limits};
 use crate::pipeline::job::CancelToken;
-use crate::pipeline::progressive::render;
+use crate::runner::{self, RunError};
 use anyhow::anyhow;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -15,7 +15,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .map_err(|e| anyhow!("{}", scene.describe(&e)))?;
     let job = &prepared.job;
     // A bar over the passes when a pass count ends the render; a spinner when spp or time do.
-    let by_passes = args.max_spp.is_none() && args.time.is_none();
+    let by_passes =
+        args.max_spp.is_none() && args.time.is_none() && args.target_error.is_none() && args.max_passes.is_some();
     let bar = if by_passes {
         ProgressBar::new(job.halt.max_passes as u64).with_style(
             ProgressStyle::with_template("{spinner} pass {pos}/{len} {wide_bar} {msg}")
@@ -29,21 +30,16 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     bar.set_message(format!("{}x{} {}", job.width(), job.height(), job.method.name()));
     let writer = FrameWriter::new(&args);
-    let mut failure = None;
-    let result = render(job, &CancelToken::new(), &mut |frame| {
+    // Every frame goes to the writer (it keeps the final one and every `--every`-th).
+    let result = runner::run(job, &CancelToken::new(), 1, &mut |frame| {
         bar.set_position(frame.stats.pass as u64 + 1);
         bar.set_message(format!("{:.1} spp, {:.2} s", frame.stats.mean_spp, frame.stats.elapsed_seconds));
-        match writer.frame(frame, &prepared.info) {
-            Ok(()) => true,
-            Err(e) => {
-                failure = Some(e);
-                false
-            }
-        }
+        writer.frame(frame, &prepared.info)
     });
     bar.finish_and_clear();
-    if let Some(e) = failure {
-        return Err(e);
+    match result {
+        Ok(_) => Ok(()),
+        Err(RunError::Sink(e)) => Err(e),
+        Err(RunError::Cancelled) => Err(anyhow!("render cancelled")),
     }
-    result.map(|_| ()).map_err(|e| anyhow!("{e}"))
 }

@@ -2,7 +2,7 @@
 //! for. `render` and `client` share both, so the same arguments give the same files.
 use super::RenderArgs;
 use crate::output::{write_frame_files, OutputOptions};
-use crate::pipeline::frame::{Frame, RenderInfo};
+use crate::pipeline::frame::{Frame, HaltReason, RenderInfo};
 use crate::pipeline::job::Method;
 use crate::proto::{self, render_request::SceneSource};
 use crate::scene::{builtin, json};
@@ -129,14 +129,29 @@ impl FrameWriter {
         }
         if frame.stats.is_final {
             let files = write_frame_files(&self.out, "final", frame, info, &self.opts)?;
+            let s = &frame.stats;
+            let error = s.estimated_error.map_or_else(String::new, |e| format!(", estimated error {:.2}%", e * 100.0));
+            let cut = if s.pass_complete { "" } else { " inside its last pass" };
             eprintln!(
-                "wrote {} ({} passes, {:.1} spp, {:.2} s)",
+                "wrote {} ({} passes, {:.1} spp, {:.2} s{error}; stopped by {}{cut})",
                 files.exr.display(),
                 pass + 1,
-                frame.stats.mean_spp,
-                frame.stats.elapsed_seconds
+                s.mean_spp,
+                s.elapsed_seconds,
+                halt_reason_text(s.halt_reason),
             );
         }
         Ok(())
+    }
+}
+
+/// Why a render stopped, in words.
+fn halt_reason_text(reason: HaltReason) -> &'static str {
+    match reason {
+        HaltReason::None => "nothing (not final)",
+        HaltReason::MaxPasses => "the pass limit",
+        HaltReason::MaxSpp => "the spp limit",
+        HaltReason::TimeBudget => "the time budget",
+        HaltReason::NoiseTarget => "the noise target",
     }
 }

@@ -22,8 +22,9 @@ pub struct ErrorEstimate {
 }
 
 impl ErrorEstimate {
-    /// The estimated relative RMSE of `frame` (None for the first frame, or an image whose
-    /// mean is not positive), remembering `frame` for the next call.
+    /// The estimated relative RMSE of `frame` (None for the first frame, or an image that
+    /// changed but whose mean is not positive; 0 for a frame that did not change), remembering
+    /// `frame` for the next call.
     pub fn update(&mut self, frame: &Frame) -> Option<f64> {
         let estimate = self.previous.as_ref().and_then(|(color, spp)| relative_error(color, spp, frame));
         self.previous = Some((frame.color.clone(), frame.spp.clone()));
@@ -49,6 +50,10 @@ pub fn relative_error(color: &[[f32; 3]], spp: &[f32], next: &Frame) -> Option<f
     let values = (color.len() * 3) as f64;
     let mean = sum / values;
     let rmse = (sq / values).sqrt();
+    if rmse == 0.0 {
+        // Nothing changed (a black image, or no new samples): no error left to see.
+        return Some(0.0);
+    }
     (mean > 0.0 && rmse.is_finite()).then(|| rmse / mean)
 }
 
@@ -124,10 +129,13 @@ mod tests {
     }
 
     #[test]
-    fn a_black_image_has_no_relative_error() {
-        let f = Frame { width: 2, height: 1, color: vec![[0.0; 3]; 2], spp: vec![1.0; 2], ..Frame::default() };
+    fn a_black_image_has_converged_and_one_that_turns_black_has_no_relative_error() {
+        let black = Frame { width: 2, height: 1, color: vec![[0.0; 3]; 2], spp: vec![1.0; 2], ..Frame::default() };
         let mut est = ErrorEstimate::default();
-        est.update(&f);
-        assert_eq!(est.update(&f), None);
+        est.update(&black);
+        assert_eq!(est.update(&black), Some(0.0));
+        let grey = Frame { color: vec![[0.5; 3]; 2], ..black.clone() };
+        est.update(&grey);
+        assert_eq!(est.update(&Frame { spp: vec![2.0; 2], ..black }), None);
     }
 }
