@@ -2,6 +2,7 @@
 //! first frame over gRPC (`latency`). Results are printed as Markdown for BENCHMARKS.md.
 pub mod convergence;
 pub mod latency;
+pub mod noise;
 pub mod plot;
 pub mod rays;
 pub mod reference;

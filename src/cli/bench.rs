@@ -106,6 +106,23 @@ pub enum BenchKind {
         #[arg(long, default_value = "1.5,16")]
         leaf_cost: String,
     },
+    /// The noise-target halt's own error estimate against the true error, per scene, method
+    /// and target.
+    Noise {
+        #[arg(long, value_delimiter = ',', default_value = "cornell,grids,curved")]
+        scenes: Vec<String>,
+        #[arg(long, default_value_t = 128)]
+        width: u32,
+        #[arg(long, default_value_t = 96)]
+        height: u32,
+        #[arg(long, value_delimiter = ',', default_value = "0.1,0.05,0.025")]
+        targets: Vec<f64>,
+        #[arg(long, value_delimiter = ',', default_value = "uniform,aaf")]
+        methods: Vec<String>,
+        /// Samples per pixel of each of the two uniform references.
+        #[arg(long, default_value_t = 4096.0)]
+        reference_spp: f64,
+    },
     /// Latency from a Render request to its first five frames over gRPC, per method.
     Latency {
         #[arg(long, default_value = "cornell")]
@@ -222,6 +239,43 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             for r in ratios {
                 println!("{r}");
             }
+            Ok(())
+        }
+        BenchKind::Noise { scenes, width, height, targets, methods, reference_spp } => {
+            use crate::bench::noise;
+            use crate::pipeline::job::Method;
+            let methods: Vec<Method> = methods
+                .iter()
+                .map(|m| Method::from_name(m).ok_or_else(|| anyhow::anyhow!("--methods: unknown method {m:?}")))
+                .collect::<anyhow::Result<_>>()?;
+            println!("{}\n", machine_description());
+            println!("| scene | method | target | estimated | true | true / estimated | mean spp | seconds |");
+            println!("|---|---|---|---|---|---|---|---|");
+            let (mut within, mut total) = (0, 0);
+            for scene in &scenes {
+                let reference = noise::reference(scene, width, height, reference_spp)?;
+                eprintln!("{scene}: reference's own relative RMSE {:.4}", reference.1);
+                for &m in &methods {
+                    for &t in &targets {
+                        let r = noise::measure(scene, (width, height), m, t, &reference)?;
+                        let ratio = r.ratio();
+                        total += 1;
+                        if (0.5..=2.0).contains(&ratio) {
+                            within += 1;
+                        }
+                        println!(
+                            "| {scene} | {} | {t} | {:.4} | {:.4} | {ratio:.2} | {:.0} | {:.2}{} |",
+                            m.name(),
+                            r.estimated,
+                            r.truth,
+                            r.mean_spp,
+                            r.seconds,
+                            if r.halted_by_target { "" } else { " (not halted by the target)" }
+                        );
+                    }
+                }
+            }
+            println!("\nwithin a factor of 2: {within} of {total}");
             Ok(())
         }
         BenchKind::Latency { scene, width, height, runs, method, addr } => {

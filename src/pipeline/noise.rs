@@ -15,21 +15,49 @@
 //! the true error on built-in scenes (BENCHMARKS.md).
 use super::frame::Frame;
 
+/// A filtered frame whose mean filter width is above this fraction of the previous frame's
+/// has no estimate: with the same filter, the difference sees the variance fall but not the
+/// bias, which stays.
+pub const NARROWING: f64 = 0.8;
+
+/// What the estimate keeps of a frame: its colour, spp map and mean filter width.
+struct Kept {
+    color: Vec<[f32; 3]>,
+    spp: Vec<f32>,
+    width: Option<f64>,
+}
+
 /// Keeps the previous frame to compare the next one with.
 #[derive(Default)]
 pub struct ErrorEstimate {
-    previous: Option<(Vec<[f32; 3]>, Vec<f32>)>,
+    previous: Option<Kept>,
 }
 
 impl ErrorEstimate {
-    /// The estimated relative RMSE of `frame` (None for the first frame, or an image that
-    /// changed but whose mean is not positive; 0 for a frame that did not change), remembering
-    /// `frame` for the next call.
+    /// The estimated relative RMSE of `frame`, remembering `frame` for the next call. None for
+    /// the first frame, for a filtered frame whose filter did not narrow since the previous
+    /// one (`NARROWING`), or for an image that changed but whose mean is not positive; 0 for a
+    /// frame that did not change.
     pub fn update(&mut self, frame: &Frame) -> Option<f64> {
-        let estimate = self.previous.as_ref().and_then(|(color, spp)| relative_error(color, spp, frame));
-        self.previous = Some((frame.color.clone(), frame.spp.clone()));
+        let width = mean_filter_width(frame);
+        let estimate = self.previous.as_ref().and_then(|k| {
+            let narrowed = match (k.width, width) {
+                (Some(before), Some(now)) => now <= NARROWING * before,
+                _ => true,
+            };
+            relative_error(&k.color, &k.spp, frame).filter(|&e| narrowed || e == 0.0)
+        });
+        self.previous = Some(Kept { color: frame.color.clone(), spp: frame.spp.clone(), width });
         estimate
     }
+}
+
+/// The mean of a filtered frame's filter-width map over the pixels it filters; None for an
+/// unfiltered frame (or one that filters nothing).
+fn mean_filter_width(frame: &Frame) -> Option<f64> {
+    let w = frame.filter_width.as_ref()?;
+    let (sum, n) = w.iter().filter(|&&x| x > 0.0).fold((0.0f64, 0usize), |(s, n), &x| (s + x as f64, n + 1));
+    (n > 0).then(|| sum / n as f64)
 }
 
 /// The estimated relative RMSE of `next`, which adds samples to the frame of `color` and `spp`.
@@ -110,6 +138,22 @@ mod tests {
                 assert!((e / t - 1.0).abs() < 0.1, "counts {counts:?}: estimate {e}, true {t}");
             }
         }
+    }
+
+    #[test]
+    fn a_filter_that_did_not_narrow_gives_no_estimate() {
+        let frame = |value: f32, width: f32| Frame {
+            width: 4,
+            height: 4,
+            color: vec![[value; 3]; 16],
+            spp: vec![4.0; 16],
+            filter_width: Some(vec![width; 16]),
+            ..Frame::default()
+        };
+        let mut est = ErrorEstimate::default();
+        est.update(&frame(0.5, 4.0));
+        assert_eq!(est.update(&frame(0.49, 4.0)), None, "same width: the bias is unseen");
+        assert!(est.update(&frame(0.48, 2.0)).is_some(), "halved width");
     }
 
     #[test]

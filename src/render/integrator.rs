@@ -254,6 +254,12 @@ mod tests {
         let (c, u, v) = (Vec3::new(-2.0, 0.0, -2.0), Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 4.0));
         b.geometry.push([c, c + u, c + u + v], None, None, m, 0);
         b.geometry.push([c, c + u + v, c + v], None, None, m, 0);
+        // An occluder at height 1 over x in [-0.85, -0.3]: it shadows the floor point
+        // (-1.5, 0, 0.1) from the light at (0.3, 2, 0.1) (the shadow ray crosses y = 1 at
+        // x = -0.6), while the camera ray to that point passes it (at x = -0.9).
+        let (c, u, v) = (Vec3::new(-0.85, 1.0, -0.5), Vec3::new(0.55, 0.0, 0.0), Vec3::new(0.0, 0.0, 1.2));
+        b.geometry.push([c, c + u, c + u + v], None, None, m, 1);
+        b.geometry.push([c, c + u + v, c + v], None, None, m, 1);
         b.lights.push(Light::Point(PointLight { position: Vec3::new(0.3, 2.0, 0.1), intensity: Vec3::splat(4.0) }));
         let scene = b.build();
         let c = &scene.default_view();
@@ -262,10 +268,91 @@ mod tests {
         let (l, _) = direct_light(&scene, &s, -dir, &mut PixelSampler::new(0, 0, 0));
         // E = I / r^2 = 4 / 4 = 1 at normal incidence; L = albedo/pi * E.
         assert!((l.x - 1.0 / std::f32::consts::PI).abs() < 1e-5, "{l}");
+        // The shadowed point: on the floor, and no light at all.
+        let k = scene.world_scale;
+        let target = (Vec3::new(-1.5, 0.0, 0.1) - scene.origin) * k;
+        let dir = (target - c.position).normalize();
+        let s = scene.intersect(c.position, dir, 0.0).unwrap();
+        assert!((s.p - target).length() < 1e-4 * k, "the camera ray hit {} not the floor", s.p);
+        let (l, _) = direct_light(&scene, &s, -dir, &mut PixelSampler::new(0, 0, 0));
+        assert_eq!(l, Vec3::ZERO);
+        // A lit point off-centre, (-0.1, 0, 0.1): its shadow ray crosses y = 1 at x = 0.1 and
+        // its camera ray at x = 0.03, both beside the occluder. The exact inverse-square light:
+        // L = albedo / pi * I cos / r^2, r^2 = 0.4^2 + 2^2, cos = 2 / r.
+        let target = (Vec3::new(-0.1, 0.0, 0.1) - scene.origin) * k;
+        let dir = (target - c.position).normalize();
+        let s = scene.intersect(c.position, dir, 0.0).unwrap();
+        assert!((s.p - target).length() < 1e-4 * k);
+        let (l, _) = direct_light(&scene, &s, -dir, &mut PixelSampler::new(0, 0, 0));
+        let r2 = 0.4f32 * 0.4 + 2.0 * 2.0;
+        let expected = 4.0 * (2.0 / r2.sqrt()) / r2 / std::f32::consts::PI;
+        assert!((l.x - expected).abs() < 1e-4, "{l} vs {expected}");
+    }
+
+    /// A closed cube of albedo `albedo`, 4 units wide, lit by a small square light under its
+    /// ceiling; the camera inside looks down at the floor.
+    fn closed_box(albedo: f32) -> Scene {
+        let mut b = SceneBuilder::new(CameraDesc {
+            // Off the floor's diagonal: a ray through the edge two triangles share can miss
+            // both (the triangle test is not watertight).
+            position: Vec3::new(0.5, 3.0, 0.3),
+            look_at: Vec3::new(0.5, 0.0, 0.3),
+            up: Vec3::Z,
+            vertical_fov_deg: 30.0,
+            width: 9,
+            height: 9,
+        });
+        let m = b.add_material(Material::Lambertian { albedo: Texture::Constant(Vec3::splat(albedo)) });
+        let o = b.new_object();
+        let quad = |b: &mut SceneBuilder, c: Vec3, u: Vec3, v: Vec3| {
+            b.geometry.push([c, c + u, c + u + v], None, None, m, o);
+            b.geometry.push([c, c + u + v, c + v], None, None, m, o);
+        };
+        let (x, y, z) = (Vec3::X * 4.0, Vec3::Y * 4.0, Vec3::Z * 4.0);
+        let lo = Vec3::new(-2.0, 0.0, -2.0);
+        let hi = lo + x + y + z;
+        quad(&mut b, lo, x, z);
+        quad(&mut b, lo, y, x);
+        quad(&mut b, lo, z, y);
+        quad(&mut b, hi, -z, -x);
+        quad(&mut b, hi, -x, -y);
+        quad(&mut b, hi, -y, -z);
+        b.add_rect_light(RectLight::new(
+            Vec3::new(-0.5, 3.9, -0.5),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::splat(2.0),
+            EmissionProfile::Uniform,
+        ));
+        b.build()
     }
 
     #[test]
-    fn bounces_add_light_and_never_go_non_finite() {
+    fn bounces_add_the_light_a_closed_box_reflects() {
+        // Each bounce adds light reflected off the walls; in a closed box of albedo a the
+        // added light shrinks geometrically (each order is about a times the one before), and
+        // all orders together stay below the direct light's 1/(1-a) times.
+        let a = 0.5f32;
+        let scene = closed_box(a);
+        let c = &scene.default_view();
+        let mut lit = [0.0f64; 4];
+        for bounces in 0..4u32 {
+            for i in 0..4096 {
+                let mut sampler = PixelSampler::new(9, 1, i);
+                let r = trace_path(&scene, c.position, c.direction(4.5, 4.5), bounces, &mut sampler);
+                assert!(r.radiance.is_finite() && r.radiance.min_element() >= 0.0);
+                lit[bounces as usize] += r.radiance.x as f64 / 4096.0;
+            }
+        }
+        let added: Vec<f64> = lit.windows(2).map(|w| w[1] - w[0]).collect();
+        assert!(added[0] > 0.2 * a as f64 * lit[0], "one bounce adds too little: {lit:?}");
+        assert!(added[1] > 0.0 && added[1] < 0.9 * added[0], "{lit:?}");
+        assert!(added[2] > 0.0 && added[2] < 0.9 * added[1], "{lit:?}");
+        assert!(lit[3] < lit[0] / (1.0 - a as f64), "{lit:?}");
+    }
+
+    #[test]
+    fn bounces_add_nothing_on_an_open_floor_and_never_go_non_finite() {
         let scene = floor_scene(0.8, 0.05);
         let c = &scene.default_view();
         let mut lit = [0.0f64; 3];

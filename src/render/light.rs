@@ -6,7 +6,7 @@ pub enum EmissionProfile {
     Uniform,
     /// Radiance falls off as exp(-|y - c|^2 / (2 sigma^2)) over the rectangle: the Gaussian
     /// light of Mehta et al. 2012 (Sec. 4). sigma is sqrt(area)/2 unless given (the authors'
-    /// code, methods.md §1.1: the rectangle then ends at one sigma); samples follow the
+    /// code, methods.md §1.1: a square then ends at one sigma); samples follow the
     /// profile (`ProfileSampler`).
     Gaussian,
 }

@@ -174,10 +174,30 @@ mod tests {
 
     #[test]
     fn different_pixels_and_seeds_decorrelate() {
-        let a = PixelSampler::new(1, 10, 0).next_2d();
-        let b = PixelSampler::new(1, 11, 0).next_2d();
-        let c = PixelSampler::new(2, 10, 0).next_2d();
-        assert_ne!(a, b);
-        assert_ne!(a, c);
+        // Pearson correlation of the same sample's coordinates between neighbouring pixels and
+        // between seeds, over many pixels and the first sample indices: zero within 4
+        // standard errors (1/sqrt(n)) for independent streams; shared scrambling would give 1.
+        fn correlation(pairs: &[(f64, f64)]) -> f64 {
+            let n = pairs.len() as f64;
+            let (ma, mb) = (pairs.iter().map(|p| p.0).sum::<f64>() / n, pairs.iter().map(|p| p.1).sum::<f64>() / n);
+            let cov: f64 = pairs.iter().map(|p| (p.0 - ma) * (p.1 - mb)).sum();
+            let va: f64 = pairs.iter().map(|p| (p.0 - ma).powi(2)).sum();
+            let vb: f64 = pairs.iter().map(|p| (p.1 - mb).powi(2)).sum();
+            cov / (va * vb).sqrt()
+        }
+        for index in [0u32, 1, 7] {
+            for dim in 0..2 {
+                let (mut pixels, mut seeds) = (Vec::new(), Vec::new());
+                for pixel in 0..4096u32 {
+                    let at = |seed: u64, pixel: u32| PixelSampler::new(seed, pixel, index).next_2d()[dim] as f64;
+                    pixels.push((at(1, pixel), at(1, pixel + 1)));
+                    seeds.push((at(1, pixel), at(2, pixel)));
+                }
+                let limit = 4.0 / (4096f64).sqrt();
+                let (rp, rs) = (correlation(&pixels), correlation(&seeds));
+                assert!(rp.abs() < limit, "index {index} dim {dim}: neighbouring pixels correlate {rp}");
+                assert!(rs.abs() < limit, "index {index} dim {dim}: seeds correlate {rs}");
+            }
+        }
     }
 }

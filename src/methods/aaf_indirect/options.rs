@@ -20,9 +20,9 @@ pub struct IndirectOptions {
     pub kernel_scale: f64,
     /// Divide the projected pixel size by |n . view| (the paper's d "accounts for
     /// foreshortening", footnote 7). Off by default, as in the authors' code and methods.md
-    /// §0.1: the filter is isotropic, and a foreshortened d (the footprint's long axis) would
-    /// keep it several pixels wide across the short axis of grazing surfaces at any mu, so the
-    /// stream would not converge to the per-pixel mean there.
+    /// §0.1: the filter is isotropic, and a foreshortened d (the footprint's long axis) keeps
+    /// it several pixels wide across the short axis of grazing surfaces, so the stream reaches
+    /// the per-pixel mean there only about 1/|n . view| times later in mu.
     pub foreshortening: bool,
     /// 10-degree normal threshold (Sec. 6), world distances, radius up to 50 pixels.
     pub filter: FilterOptions,

@@ -162,6 +162,12 @@ mod tests {
             }
             assert!(b1 > 0.0 && b1.is_finite());
         }
+        // Eq. 13 by hand, k = 3, alpha = 1: beta = max(sigma s2, (1 + s2) d / alpha) / (k mu).
+        // Light term: max(0.3 * 0.5, 1.5 * 0.01) / 3 = 0.05; pixel term (s2 = 0):
+        // max(0, 0.002) / 3 = 6.667e-4.
+        assert!((filter_width(&g(2.0, 0.5, 0.3, 0.01), &C, 1.0) - 0.05).abs() < 1e-15);
+        assert!((filter_width(&g(2.0, 0.5, 0.3, 0.01), &C, 2.0) - 0.025).abs() < 1e-15);
+        assert!((filter_width(&g(0.1, 0.0, 1.0, 0.002), &C, 1.0) - 0.002 / 3.0).abs() < 1e-15);
         // beta/d <= 0.3 px at large mu: neighbour weights fall below exp(-1/(2*0.09)).
         let px = g(2.0, 0.5, 0.3, 0.01);
         let mu = filter_width(&px, &C, 1.0) / px.d / 0.3;
@@ -180,7 +186,8 @@ mod tests {
                 last = n;
             }
         }
-        // A_p << A_l: n(2 mu)/n(mu) in [1, 4] (methods.md §1.6).
+        // Where mu (2/s2) sqrt(A_p/A_l) << alpha/(1+s2) (here A_p << A_l and s2 = 0.5):
+        // n(2 mu)/n(mu) in [1, 4] (methods.md §1.6).
         let px = g(3.0, 1.0, 0.5, 1e-4);
         for mu in [1.0, 2.0, 4.0] {
             let r = sample_count(&px, &C, 2.0 * mu, 0.0) / sample_count(&px, &C, mu, 0.0);

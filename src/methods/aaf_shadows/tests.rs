@@ -194,11 +194,27 @@ fn each_light_has_its_own_counts_and_they_add_up() {
     // Pass 0 is the sparse pass: 9 per light where the pixel sees the floor or the box.
     assert!(one[0].spp.iter().all(|&s| s == 9.0));
     assert!(two[0].spp.iter().all(|&s| s == 18.0));
-    let strategy = ShadowStrategy::new(
-        &job(shadow_scene(4, 4, 1.0, EmissionProfile::Gaussian, 2, 0.6), Method::Aaf, 1, 2),
-        FilterMode::Aaf,
-    );
-    assert_eq!(strategy.lights.len(), 2);
+    // After the sparse passes, each light gets the count its own penumbra asks for: the two
+    // lights' counts differ at some pixels, and the frame's spp is their sum at every pixel.
+    let j = job(shadow_scene(24, 18, 1.0, EmissionProfile::Gaussian, 2, 0.6), Method::Aaf, 3, 2);
+    let mut st = ShadowStrategy::new(&j, FilterMode::Aaf);
+    assert_eq!(st.lights.len(), 2);
+    let stop = StopCheck { cancel: CancelToken::new(), deadline: None };
+    let g = Arc::new(GBuffer::build(&j.scene, &j.view));
+    let mut last = None;
+    for pass in 0..4 {
+        let ctx = PassContext { scene: &j.scene, job: &j, view: &j.view, pass, stop: &stop, gbuffer: Some(&g) };
+        last = Some(st.run_pass(&ctx).expect("pass").frame);
+    }
+    let frame = last.unwrap();
+    let shadow = &frame.components[0];
+    let mut differ = 0;
+    for p in 0..frame.spp.len() {
+        let (a, b) = (st.sums[2 * p].n, st.sums[2 * p + 1].n);
+        assert_eq!(shadow.spp[p], (a + b) as f32, "pixel {p}");
+        differ += (a != b) as usize;
+    }
+    assert!(differ > 10, "the lights' counts differ at only {differ} pixels");
 }
 
 #[test]
