@@ -233,38 +233,53 @@ pub fn encode_frame(
 
 /// The `FrameComplete` message for a frame's stats.
 pub fn frame_complete(stats: &FrameStats) -> FrameComplete {
-    FrameComplete {
-        pass: stats.pass,
-        mean_spp: stats.mean_spp,
-        rays_traced: stats.rays_traced,
-        elapsed_seconds: stats.elapsed_seconds,
-        is_final: stats.is_final,
-        halt_reason: halt_reason_to_proto(stats.halt_reason) as i32,
-        dropped_samples: stats.dropped_samples,
-        method_seconds: stats.method_seconds,
-        pass_complete: stats.pass_complete,
-        estimated_relative_error: stats.estimated_error.unwrap_or(0.0),
+    FrameComplete::from(stats)
+}
+
+impl From<&FrameStats> for FrameComplete {
+    fn from(stats: &FrameStats) -> FrameComplete {
+        FrameComplete {
+            pass: stats.pass,
+            mean_spp: stats.mean_spp,
+            rays_traced: stats.rays_traced,
+            elapsed_seconds: stats.elapsed_seconds,
+            is_final: stats.is_final,
+            halt_reason: proto::HaltReason::from(stats.halt_reason) as i32,
+            dropped_samples: stats.dropped_samples,
+            method_seconds: stats.method_seconds,
+            pass_complete: stats.pass_complete,
+            estimated_relative_error: stats.estimated_error.unwrap_or(0.0),
+        }
     }
 }
 
-pub fn halt_reason_to_proto(reason: HaltReason) -> proto::HaltReason {
-    match reason {
-        HaltReason::None => proto::HaltReason::None,
-        HaltReason::MaxPasses => proto::HaltReason::MaxPasses,
-        HaltReason::MaxSpp => proto::HaltReason::MaxSpp,
-        HaltReason::TimeBudget => proto::HaltReason::TimeBudget,
-        HaltReason::NoiseTarget => proto::HaltReason::NoiseTarget,
+impl From<HaltReason> for proto::HaltReason {
+    fn from(reason: HaltReason) -> proto::HaltReason {
+        match reason {
+            HaltReason::None => proto::HaltReason::None,
+            HaltReason::MaxPasses => proto::HaltReason::MaxPasses,
+            HaltReason::MaxSpp => proto::HaltReason::MaxSpp,
+            HaltReason::TimeBudget => proto::HaltReason::TimeBudget,
+            HaltReason::NoiseTarget => proto::HaltReason::NoiseTarget,
+        }
     }
 }
 
-pub fn halt_reason_from_proto(reason: i32) -> HaltReason {
-    match proto::HaltReason::try_from(reason) {
-        Ok(proto::HaltReason::MaxPasses) => HaltReason::MaxPasses,
-        Ok(proto::HaltReason::MaxSpp) => HaltReason::MaxSpp,
-        Ok(proto::HaltReason::TimeBudget) => HaltReason::TimeBudget,
-        Ok(proto::HaltReason::NoiseTarget) => HaltReason::NoiseTarget,
-        Ok(proto::HaltReason::None) | Err(_) => HaltReason::None,
+impl From<proto::HaltReason> for HaltReason {
+    fn from(reason: proto::HaltReason) -> HaltReason {
+        match reason {
+            proto::HaltReason::None => HaltReason::None,
+            proto::HaltReason::MaxPasses => HaltReason::MaxPasses,
+            proto::HaltReason::MaxSpp => HaltReason::MaxSpp,
+            proto::HaltReason::TimeBudget => HaltReason::TimeBudget,
+            proto::HaltReason::NoiseTarget => HaltReason::NoiseTarget,
+        }
     }
+}
+
+/// The core halt reason of a wire value; an unknown value (a newer server) reads as none.
+fn halt_reason_from_wire(value: i32) -> HaltReason {
+    proto::HaltReason::try_from(value).map_or(HaltReason::None, HaltReason::from)
 }
 
 fn put_value(out: &mut Vec<u8>, v: f32, format: PixelFormat) {
@@ -518,7 +533,7 @@ impl FrameAssembler {
                 rays_traced: fc.rays_traced,
                 elapsed_seconds: fc.elapsed_seconds,
                 is_final: fc.is_final,
-                halt_reason: halt_reason_from_proto(fc.halt_reason),
+                halt_reason: halt_reason_from_wire(fc.halt_reason),
                 dropped_samples: fc.dropped_samples,
                 method_seconds: fc.method_seconds,
                 pass_complete: fc.pass_complete,

@@ -383,3 +383,16 @@ fn frames_whose_components_do_not_match_are_reported() {
     let names: Vec<&str> = chunks[0].layers.iter().map(|l| l.name.as_str()).collect();
     assert_eq!(names[4..], ["spp.diffuse", "filter_width.diffuse"]);
 }
+
+#[test]
+fn halt_reasons_round_trip_through_the_wire() {
+    use crate::proto;
+    for r in
+        [HaltReason::None, HaltReason::MaxPasses, HaltReason::MaxSpp, HaltReason::TimeBudget, HaltReason::NoiseTarget]
+    {
+        assert_eq!(HaltReason::from(proto::HaltReason::from(r)), r);
+        let stats = FrameStats { halt_reason: r, ..FrameStats::default() };
+        assert_eq!(halt_reason_from_wire(FrameComplete::from(&stats).halt_reason), r);
+    }
+    assert_eq!(halt_reason_from_wire(99), HaltReason::None);
+}
