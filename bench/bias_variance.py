@@ -6,7 +6,7 @@ squared bias, (mean - reference)^2 minus the variance of that mean (variance / N
 are also grouped by the filter width the frame used (the EXR's `filter_width` channel).
 
     for s in 1 2 3 4 5 6 7 8; do
-      wedge render grids --method aaf --max-passes 2 --width 640 --height 480 \\
+      wedge render grids --method aaf --max-passes 3 --width 640 --height 480 \\
           --pixel-centers --seed $s --out /tmp/aaf/s$s
     done
     python3 bench/bias_variance.py REFERENCE.exr '/tmp/aaf/s*/final.exr'

@@ -40,7 +40,9 @@ pub fn render(
         let PassOutput { mut frame, complete } = strategy.run_pass(&ctx)?;
         let elapsed = start.elapsed();
         frame.stats.rays_traced += gbuffer_rays;
-        let estimate = error.update(&frame);
+        // A pass the deadline cut left most pixels as they were: the change since the previous
+        // frame says little about the error, so a cut frame claims no estimate.
+        let estimate = error.update(&frame).filter(|_| complete);
         let reason = if halt.max_mean_spp > 0.0 && frame.stats.mean_spp >= halt.max_mean_spp {
             HaltReason::MaxSpp
         } else if pass + 1 >= halt.max_passes.max(1) {
