@@ -112,10 +112,14 @@ fn rmse_falls_as_mu_grows_on_the_glossy_cornell_box() {
     let names: Vec<&str> = f[0].components.iter().map(|c| c.name.as_str()).collect();
     assert_eq!(names, ["diffuse", "glossy"]);
     let e: Vec<f64> = f.iter().map(|fr| rmse(&fr.color, &reference.color)).collect();
+    // Frames 0 and 1 share mu0 (the error is the filter's bias, which more samples do not
+    // move); from then on each doubling of mu should cut the error at least as much as
+    // doubling uniform samples does (1/sqrt 2), here with 0.8 for the reference's own noise,
+    // and by (1/sqrt 2)^3 over the three steps.
     for k in 2..5 {
-        assert!(e[k] < e[k - 1] * 1.02, "error rose at pass {k}: {e:?}");
+        assert!(e[k] < 0.8 * e[k - 1], "error fell too slowly at pass {k}: {e:?}");
     }
-    assert!(e[4] < 0.6 * e[1], "{e:?}");
+    assert!(e[4] < 0.36 * e[1], "{e:?}");
     // The filter narrows as 1/mu, per component, at every pixel filtered in both passes.
     for c in 0..2 {
         for k in 2..5 {
