@@ -4,4 +4,6 @@ pub mod aaf_indirect;
 pub mod aaf_shadows;
 pub mod mode;
 pub mod parts;
+#[cfg(test)]
+mod test_util;
 pub mod uniform;

@@ -1,7 +1,6 @@
 //! Tests of the indirect strategy on small scenes with fixed seeds (methods.md §2.5).
 use super::*;
-use crate::pipeline::job::{CancelToken, Halt, Method};
-use crate::pipeline::progressive::render;
+use crate::pipeline::job::{Halt, Method};
 use crate::render::light::polygon_irradiance;
 use crate::scene::{compile, json::parse_scene, SceneLimits};
 use std::sync::Arc;
@@ -41,18 +40,7 @@ fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64, bounces: u32) 
     }
 }
 
-/// The frames of `j`, without the AAF family's preview (see `job`).
-fn frames(j: &RenderJob) -> Vec<Frame> {
-    let mut out = Vec::new();
-    render(j, &CancelToken::new(), &mut |f| {
-        if j.method == Method::Uniform || f.stats.pass > 0 {
-            out.push(f.clone());
-        }
-        true
-    })
-    .expect("render");
-    out
-}
+use super::super::test_util::frames;
 
 fn reference(scene: Arc<Scene>, bounces: u32, spp: f64) -> Frame {
     let mut j = job(scene, Method::Uniform, 20, 99, bounces);

@@ -71,18 +71,7 @@ fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64) -> RenderJob {
     }
 }
 
-/// The frames of `j`, without the AAF family's preview (see `job`).
-fn frames(j: &RenderJob) -> Vec<Frame> {
-    let mut out = Vec::new();
-    render(j, &CancelToken::new(), &mut |f| {
-        if j.method == Method::Uniform || f.stats.pass > 0 {
-            out.push(f.clone());
-        }
-        true
-    })
-    .expect("render");
-    out
-}
+use super::super::test_util::frames;
 
 fn rmse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
     let se: f64 = a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2))).sum();
