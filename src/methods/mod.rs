@@ -5,5 +5,5 @@ pub mod aaf_shadows;
 pub mod mode;
 pub mod parts;
 #[cfg(test)]
-mod test_util;
+mod tests;
 pub mod uniform;

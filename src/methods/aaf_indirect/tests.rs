@@ -40,7 +40,7 @@ fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64, bounces: u32) 
     }
 }
 
-use super::super::test_util::frames;
+use super::super::tests::frames;
 
 fn reference(scene: Arc<Scene>, bounces: u32, spp: f64) -> Frame {
     let mut j = job(scene, Method::Uniform, 20, 99, bounces);

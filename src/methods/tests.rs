@@ -1,4 +1,4 @@
-//! What the methods' tests share.
+//! What the methods' tests share (test code: `tests/layers.rs` does not hold it to the layers).
 use crate::pipeline::frame::Frame;
 use crate::pipeline::job::{CancelToken, Method, RenderJob};
 use crate::pipeline::progressive::render;
