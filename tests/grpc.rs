@@ -511,3 +511,30 @@ async fn aaf_streams_the_component_maps() {
         assert!(widths.iter().all(|w| w.is_finite() && *w >= 0.0), "{}", c.name);
     }
 }
+
+/// The noise target, the error estimate and whether a pass was complete cross the wire as
+/// they are computed: the remote stream equals the local render, field for field.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_noise_target_and_error_estimates_cross_the_wire() {
+    let server = TestServer::start().await;
+    let mut req = cornell(40, 30, 0, 3);
+    let s = req.settings.as_mut().unwrap();
+    (s.method, s.target_error, s.max_passes) = (Method::Aaf as i32, 0.15, 0);
+    let mut remote = Vec::new();
+    let last = within(
+        120,
+        "render",
+        wedge::client::render_remote(&server.addr_str(), req.clone(), |_, frame| remote.push(frame.clone())),
+    )
+    .await
+    .expect("render_remote")
+    .expect("a final frame");
+    assert_eq!(last.stats.halt_reason, HaltReason::NoiseTarget);
+    let e = last.stats.estimated_error.expect("an estimate");
+    assert!(e > 0.0 && e <= 0.15, "{e}");
+    assert_eq!(remote[0].stats.estimated_error, None, "the first frame has no estimate");
+    assert!(remote.iter().all(|f| f.stats.pass_complete));
+    let local = render_locally(&req, "cornell");
+    assert_eq!(local.stats.estimated_error, last.stats.estimated_error);
+    assert_eq!(local.color, last.color);
+}
