@@ -184,6 +184,7 @@ pub fn radiance_from(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::render::camera::Camera;
     use crate::render::light::{polygon_irradiance, EmissionProfile, PointLight, RectLight};
     use crate::render::scene::{CameraDesc, SceneBuilder};
     use crate::render::texture::Texture;
@@ -289,9 +290,10 @@ mod tests {
         assert!((l.x - expected).abs() < 1e-4, "{l} vs {expected}");
     }
 
-    /// A closed cube of albedo `albedo`, 4 units wide, lit by a small square light under its
-    /// ceiling; the camera inside looks down at the floor.
-    fn closed_box(albedo: f32) -> Scene {
+    /// A closed cube of albedo `albedo`, 4 units wide (y from 0 to 4), and a small square light
+    /// at height `light_y` facing down (under the ceiling: inside); the camera inside looks
+    /// down at the floor.
+    fn closed_box(albedo: f32, light_y: f32) -> Scene {
         let mut b = SceneBuilder::new(CameraDesc {
             // Off the floor's diagonal: a ray through the edge two triangles share can miss
             // both (the triangle test is not watertight).
@@ -318,7 +320,7 @@ mod tests {
         quad(&mut b, hi, -x, -y);
         quad(&mut b, hi, -y, -z);
         b.add_rect_light(RectLight::new(
-            Vec3::new(-0.5, 3.9, -0.5),
+            Vec3::new(-0.5, light_y, -0.5),
             Vec3::new(1.0, 0.0, 0.0),
             Vec3::new(0.0, 0.0, 1.0),
             Vec3::splat(2.0),
@@ -328,12 +330,35 @@ mod tests {
     }
 
     #[test]
+    fn no_light_leaks_into_a_closed_box_through_its_edges_and_corners() {
+        // The box of `closed_box` with its light outside, above the ceiling: every path from a
+        // camera inside must stay black, whatever the bounces, including at the inside edges
+        // and the corner it looks into, where shadow and bounce rays start next to a second
+        // wall.
+        let scene = closed_box(0.8, 4.5);
+        let k = scene.world_scale;
+        let at = |p: Vec3| (p - scene.origin) * k;
+        let cam = Camera::new(at(Vec3::new(0.3, 2.1, 0.2)), at(Vec3::new(-2.0, 0.0, -2.0)), Vec3::Y, 60.0, 16, 16);
+        for y in 0..16 {
+            for x in 0..16 {
+                for i in 0..64 {
+                    let mut sampler = PixelSampler::new(5, (y * 16 + x) as u32, i);
+                    let j = sampler.next_2d();
+                    let dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
+                    let r = trace_path(&scene, cam.position, dir, 3, &mut sampler);
+                    assert_eq!(r.radiance, Vec3::ZERO, "light leaked in at pixel ({x}, {y}), sample {i}");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn bounces_add_the_light_a_closed_box_reflects() {
         // Each bounce adds light reflected off the walls; in a closed box of albedo a the
         // added light shrinks geometrically (each order is about a times the one before), and
         // all orders together stay below the direct light's 1/(1-a) times.
         let a = 0.5f32;
-        let scene = closed_box(a);
+        let scene = closed_box(a, 3.9);
         let c = &scene.default_view();
         let mut lit = [0.0f64; 4];
         for bounces in 0..4u32 {
