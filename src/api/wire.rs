@@ -232,10 +232,6 @@ pub fn encode_frame(
 }
 
 /// The `FrameComplete` message for a frame's stats.
-pub fn frame_complete(stats: &FrameStats) -> FrameComplete {
-    FrameComplete::from(stats)
-}
-
 impl From<&FrameStats> for FrameComplete {
     fn from(stats: &FrameStats) -> FrameComplete {
         FrameComplete {

@@ -3,6 +3,7 @@
 //! relative RMSE, measured against a high-spp `uniform` reference. Two references with their
 //! own seeds give the reference's own noise, which is taken out of the true error:
 //! true^2 = RMSE(frame, ref1)^2 - RMSE(ref1, ref2)^2 / 2.
+use super::convergence::rmse;
 use crate::api::request::{prepare, Limits};
 use crate::pipeline::frame::Frame;
 use crate::pipeline::job::{CancelToken, Halt, Method, RenderJob};
@@ -51,11 +52,6 @@ fn final_frame(job: &RenderJob) -> Frame {
     last.unwrap_or_default()
 }
 
-fn mean_square_difference(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
-    let se: f64 = a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2))).sum();
-    se / (3 * a.len().max(1)) as f64
-}
-
 fn image_mean(f: &Frame) -> f64 {
     f.color.iter().flatten().map(|&v| v as f64).sum::<f64>() / (3 * f.color.len().max(1)) as f64
 }
@@ -68,7 +64,7 @@ pub fn reference(scene: &str, width: u32, height: u32, spp: f64) -> anyhow::Resu
         j.halt = Halt { max_passes: 64, max_mean_spp: spp, time_budget: None, target_error: None };
         frames.push(final_frame(&j));
     }
-    let own = (mean_square_difference(&frames[0].color, &frames[1].color) / 2.0).sqrt() / image_mean(&frames[0]);
+    let own = rmse(&frames[0], &frames[1]) / 2f64.sqrt() / image_mean(&frames[0]);
     Ok((frames.swap_remove(0), own))
 }
 
@@ -85,7 +81,7 @@ pub fn measure(
     let f = final_frame(&j);
     let (ref_frame, ref_error) = reference;
     let mean = image_mean(ref_frame);
-    let measured = mean_square_difference(&f.color, &ref_frame.color) / (mean * mean);
+    let measured = (rmse(&f, ref_frame) / mean).powi(2);
     let truth = (measured - ref_error * ref_error).max(0.0).sqrt();
     Ok(NoiseRow {
         scene: scene.to_string(),

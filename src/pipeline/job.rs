@@ -106,10 +106,6 @@ impl RenderJob {
     pub fn height(&self) -> u32 {
         self.view.height
     }
-
-    pub fn pixel_count(&self) -> usize {
-        self.view.width as usize * self.view.height as usize
-    }
 }
 
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

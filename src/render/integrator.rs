@@ -205,15 +205,34 @@ mod tests {
         let (c, u, v) = (Vec3::new(-2.0, 0.0, -2.0), Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 4.0));
         b.geometry.push([c, c + u, c + u + v], None, None, m, o);
         b.geometry.push([c, c + u + v, c + v], None, None, m, o);
-        // Emits downwards: edge_u x edge_v = -y.
-        b.add_rect_light(RectLight::new(
-            Vec3::new(-0.5, light_height, -0.5),
+        b.add_rect_light(down_light(light_height));
+        b.build()
+    }
+
+    /// A 1 x 1 uniform light at height `y` over the origin, emitting downwards
+    /// (edge_u x edge_v = -y).
+    fn down_light(y: f32) -> RectLight {
+        RectLight::new(
+            Vec3::new(-0.5, y, -0.5),
             Vec3::new(1.0, 0.0, 0.0),
             Vec3::new(0.0, 0.0, 1.0),
             Vec3::splat(2.0),
             EmissionProfile::Uniform,
-        ));
-        b.build()
+        )
+    }
+
+    /// The mean red radiance of `n` paths with `bounces` through the centre pixel of the
+    /// scene's own view; every path finite and non-negative.
+    fn centre_radiance(scene: &Scene, bounces: u32, n: u32) -> f64 {
+        let c = scene.default_view();
+        let mut sum = 0.0;
+        for i in 0..n {
+            let mut sampler = PixelSampler::new(9, 1, i);
+            let r = trace_path(scene, c.position, c.direction(4.5, 4.5), bounces, &mut sampler);
+            assert!(r.radiance.is_finite() && r.radiance.min_element() >= 0.0);
+            sum += r.radiance.x as f64;
+        }
+        sum / n as f64
     }
 
     #[test]
@@ -319,13 +338,7 @@ mod tests {
         quad(&mut b, hi, -z, -x);
         quad(&mut b, hi, -x, -y);
         quad(&mut b, hi, -y, -z);
-        b.add_rect_light(RectLight::new(
-            Vec3::new(-0.5, light_y, -0.5),
-            Vec3::new(1.0, 0.0, 0.0),
-            Vec3::new(0.0, 0.0, 1.0),
-            Vec3::splat(2.0),
-            EmissionProfile::Uniform,
-        ));
+        b.add_rect_light(down_light(light_y));
         b.build()
     }
 
@@ -359,16 +372,7 @@ mod tests {
         // all orders together stay below the direct light's 1/(1-a) times.
         let a = 0.5f32;
         let scene = closed_box(a, 3.9);
-        let c = &scene.default_view();
-        let mut lit = [0.0f64; 4];
-        for bounces in 0..4u32 {
-            for i in 0..4096 {
-                let mut sampler = PixelSampler::new(9, 1, i);
-                let r = trace_path(&scene, c.position, c.direction(4.5, 4.5), bounces, &mut sampler);
-                assert!(r.radiance.is_finite() && r.radiance.min_element() >= 0.0);
-                lit[bounces as usize] += r.radiance.x as f64 / 4096.0;
-            }
-        }
+        let lit = [0, 1, 2, 3].map(|bounces| centre_radiance(&scene, bounces, 4096));
         let added: Vec<f64> = lit.windows(2).map(|w| w[1] - w[0]).collect();
         assert!(added[0] > 0.2 * a as f64 * lit[0], "one bounce adds too little: {lit:?}");
         assert!(added[1] > 0.0 && added[1] < 0.9 * added[0], "{lit:?}");
@@ -379,16 +383,7 @@ mod tests {
     #[test]
     fn bounces_add_nothing_on_an_open_floor_and_never_go_non_finite() {
         let scene = floor_scene(0.8, 0.05);
-        let c = &scene.default_view();
-        let mut lit = [0.0f64; 3];
-        for (k, bounces) in [0u32, 1, 3].into_iter().enumerate() {
-            for i in 0..256 {
-                let mut sampler = PixelSampler::new(9, 1, i);
-                let r = trace_path(&scene, c.position, c.direction(4.5, 4.5), bounces, &mut sampler);
-                assert!(r.radiance.is_finite() && r.radiance.min_element() >= 0.0);
-                lit[k] += r.radiance.x as f64;
-            }
-        }
+        let lit = [0, 1, 3].map(|bounces| centre_radiance(&scene, bounces, 256));
         // An open floor has nothing to bounce light back: bounces change nothing here.
         assert!((lit[0] - lit[1]).abs() < 1e-9 * lit[0].max(1.0), "{lit:?}");
     }

@@ -4,13 +4,13 @@
 use super::state::{RenderOutcome, ServerState};
 use super::ServerConfig;
 use crate::api::request::{self, Limits, PreparedJob};
-use crate::api::wire::{self, frame_complete};
+use crate::api::wire;
 use crate::pipeline::frame::Frame;
 use crate::pipeline::job::CancelToken;
 use crate::pipeline::registry::component_names;
 use crate::proto::{
-    render_request::SceneSource, render_update, renderer_server::Renderer, ListScenesRequest, ListScenesResponse,
-    OutputSelection, PixelFormat, RenderRequest, RenderStarted, RenderUpdate,
+    render_request::SceneSource, render_update, renderer_server::Renderer, FrameComplete, ListScenesRequest,
+    ListScenesResponse, OutputSelection, PixelFormat, RenderRequest, RenderStarted, RenderUpdate,
 };
 use crate::runner::{self, RunError, RunSummary, Slots};
 use std::sync::Arc;
@@ -233,7 +233,7 @@ impl WireSink {
             let chunk = wire::encode_rows(frame, sel, components, y0, n);
             tx.blocking_send(update(render_update::Kind::Chunk(chunk))).map_err(|_| SinkError::ClientGone)?;
         }
-        let complete = frame_complete(&frame.stats);
+        let complete = FrameComplete::from(&frame.stats);
         tx.blocking_send(update(render_update::Kind::FrameComplete(complete))).map_err(|_| SinkError::ClientGone)
     }
 }

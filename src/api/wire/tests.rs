@@ -69,7 +69,7 @@ fn round_trip(frame: &Frame, sel: &OutputSelection, max_chunk_bytes: usize) -> F
     for chunk in encode(frame, sel, max_chunk_bytes) {
         asm.chunk(chunk).unwrap();
     }
-    asm.complete(&frame_complete(&frame.stats)).unwrap()
+    asm.complete(&FrameComplete::from(&frame.stats)).unwrap()
 }
 
 fn bits(v: &[[f32; 3]]) -> Vec<u32> {
@@ -244,7 +244,7 @@ fn missing_row_is_an_error() {
     let chunks = encode(&frame, &sel, 1);
     asm.chunk(chunks[0].clone()).unwrap();
     asm.chunk(chunks[2].clone()).unwrap();
-    let e = asm.complete(&frame_complete(&frame.stats)).unwrap_err();
+    let e = asm.complete(&FrameComplete::from(&frame.stats)).unwrap_err();
     assert!(e.0.contains("missing 1 of 3 rows (first: row 1)"), "{e}");
 }
 
@@ -311,7 +311,7 @@ fn push_drives_a_whole_stream() {
         f.stats.pass = pass;
         f.stats.is_final = pass == 1;
         updates.extend(encode(&f, &sel, 100).into_iter().map(render_update::Kind::Chunk));
-        updates.push(render_update::Kind::FrameComplete(frame_complete(&f.stats)));
+        updates.push(render_update::Kind::FrameComplete(FrameComplete::from(&f.stats)));
     }
     let mut frames = Vec::new();
     for kind in updates {
