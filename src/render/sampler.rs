@@ -36,18 +36,22 @@ fn laine_karras(mut x: u32, seed: u32) -> u32 {
     x
 }
 
+/// An Owen scramble of `x` (Burley 2020, Listing 2), as the tests' reference.
+#[cfg(test)]
 #[inline]
 fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
     laine_karras(x.reverse_bits(), seed).reverse_bits()
 }
 
 /// Sobol dimension 0 (van der Corput) as a 32-bit fraction.
+#[cfg(test)]
 #[inline]
 fn sobol0(i: u32) -> u32 {
     i.reverse_bits()
 }
 
 /// Sobol dimension 1: direction numbers of the primitive polynomial x + 1.
+#[cfg(test)]
 #[inline]
 fn sobol1(mut i: u32) -> u32 {
     let mut v = 1u32 << 31;
@@ -62,6 +66,59 @@ fn sobol1(mut i: u32) -> u32 {
     r
 }
 
+/// Sobol dimension 1 in the bit-reversed domain: `sobol1(j.reverse_bits()).reverse_bits()`.
+///
+/// The map is linear over GF(2) in the bits of `j`, so it is the XOR of one table entry per
+/// byte of `j`. The sampler works on bit-reversed values throughout (Owen scrambling is a
+/// Laine-Karras permutation of them), so the table spares it a bit-serial loop and two bit
+/// reversals per point.
+#[inline]
+fn sobol1_reversed(j: u32) -> u32 {
+    let t = &SOBOL1_REVERSED;
+    t[0][(j & 0xff) as usize]
+        ^ t[1][(j >> 8 & 0xff) as usize]
+        ^ t[2][(j >> 16 & 0xff) as usize]
+        ^ t[3][(j >> 24) as usize]
+}
+
+/// Direction numbers of Sobol dimension 1, bit-reversed: entry k is the image of bit k.
+const fn sobol1_reversed_columns() -> [u32; 32] {
+    let mut cols = [0u32; 32];
+    // Column k of the generator matrix is v_k = v_{k-1} ^ (v_{k-1} >> 1), v_0 = 1 << 31; the
+    // reversed domain maps bit 31 - k of the input to the reversed column.
+    let mut v = 1u32 << 31;
+    let mut k = 0;
+    while k < 32 {
+        cols[31 - k] = v.reverse_bits();
+        v ^= v >> 1;
+        k += 1;
+    }
+    cols
+}
+
+const SOBOL1_REVERSED: [[u32; 256]; 4] = {
+    let cols = sobol1_reversed_columns();
+    let mut t = [[0u32; 256]; 4];
+    let mut byte = 0;
+    while byte < 4 {
+        let mut b = 0;
+        while b < 256 {
+            let mut r = 0;
+            let mut bit = 0;
+            while bit < 8 {
+                if b >> bit & 1 != 0 {
+                    r ^= cols[byte * 8 + bit];
+                }
+                bit += 1;
+            }
+            t[byte][b] = r;
+            b += 1;
+        }
+        byte += 1;
+    }
+    t
+};
+
 /// 2^-32 with the result kept strictly below 1 in f32.
 #[inline]
 fn to_unit(x: u32) -> f32 {
@@ -73,7 +130,8 @@ fn to_unit(x: u32) -> f32 {
 #[derive(Clone, Copy, Debug)]
 pub struct PixelSampler {
     key: u64,
-    index: u32,
+    /// The sample index, bit-reversed once here rather than at every point.
+    reversed_index: u32,
     pair: u32,
 }
 
@@ -81,18 +139,25 @@ impl PixelSampler {
     /// Sampler for sample `index` (0-based, counted over all passes) of pixel `pixel`.
     #[inline]
     pub fn new(seed: u64, pixel: u32, index: u32) -> Self {
-        PixelSampler { key: hash_words(&[seed, pixel as u64]), index, pair: 0 }
+        PixelSampler { key: hash_words(&[seed, pixel as u64]), reversed_index: index.reverse_bits(), pair: 0 }
     }
 
     /// The next 2-D point in [0,1)^2. Successive calls use independent scrambles, each stratified
     /// across the pixel's samples.
+    ///
+    /// Point i of the shuffled, scrambled sequence is (owen(sobol0(i')), owen(sobol1(i'))) with
+    /// i' = owen(i) (Burley 2020, Listing 3). The steps run on bit-reversed values where they
+    /// can, since an Owen scramble is a Laine-Karras permutation of the reversed bits: sobol0
+    /// reversed is the identity, and sobol1 reversed is a table lookup.
     #[inline]
     pub fn next_2d(&mut self) -> [f32; 2] {
         let h = mix64(self.key ^ (self.pair as u64).wrapping_mul(0xd1b5_4a32_d192_ed03));
         self.pair += 1;
         let (s_index, s_x, s_y) = (h as u32, (h >> 32) as u32, mix64(h) as u32);
-        let i = nested_uniform_scramble(self.index, s_index);
-        [to_unit(nested_uniform_scramble(sobol0(i), s_x)), to_unit(nested_uniform_scramble(sobol1(i), s_y))]
+        let j = laine_karras(self.reversed_index, s_index);
+        let x = laine_karras(j.reverse_bits(), s_x).reverse_bits();
+        let y = laine_karras(sobol1_reversed(j), s_y).reverse_bits();
+        [to_unit(x), to_unit(y)]
     }
 
     /// The next 1-D value in [0,1) (the first coordinate of a fresh pair).
@@ -116,6 +181,32 @@ mod tests {
                 assert_eq!(p, b.next_2d());
                 assert!((0.0..1.0).contains(&p[0]) && (0.0..1.0).contains(&p[1]));
             }
+        }
+    }
+
+    /// The sampler's reversed-domain arithmetic gives the same points, bit for bit, as
+    /// Burley's Listing 3 written out (shuffle the index, Sobol, scramble each coordinate).
+    #[test]
+    fn points_equal_the_straightforward_owen_scrambled_sobol() {
+        let reference = |key: u64, index: u32, pair: u32| {
+            let h = mix64(key ^ (pair as u64).wrapping_mul(0xd1b5_4a32_d192_ed03));
+            let (s_index, s_x, s_y) = (h as u32, (h >> 32) as u32, mix64(h) as u32);
+            let i = nested_uniform_scramble(index, s_index);
+            [to_unit(nested_uniform_scramble(sobol0(i), s_x)), to_unit(nested_uniform_scramble(sobol1(i), s_y))]
+        };
+        let mut indices: Vec<u32> = (0..2000).collect();
+        indices.extend([1 << 20, (1 << 24) + 12345, u32::MAX - 1, u32::MAX]);
+        for &index in &indices {
+            for pixel in [0u32, 17, 99_999] {
+                let mut s = PixelSampler::new(5, pixel, index);
+                let key = hash_words(&[5, pixel as u64]);
+                for pair in 0..6 {
+                    assert_eq!(s.next_2d(), reference(key, index, pair), "index {index} pixel {pixel} pair {pair}");
+                }
+            }
+        }
+        for j in [0u32, 1, 0x8000_0000, 0xdead_beef, u32::MAX] {
+            assert_eq!(sobol1_reversed(j), sobol1(j.reverse_bits()).reverse_bits(), "{j:#x}");
         }
     }
 

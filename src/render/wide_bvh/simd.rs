@@ -60,6 +60,10 @@ mod imp {
             F4(unsafe { _mm_cmple_ps(self.0, o.0) })
         }
         #[inline(always)]
+        pub fn lt(self, o: Self) -> Self {
+            F4(unsafe { _mm_cmplt_ps(self.0, o.0) })
+        }
+        #[inline(always)]
         pub fn ne(self, o: Self) -> Self {
             F4(unsafe { _mm_cmpneq_ps(self.0, o.0) })
         }
@@ -141,6 +145,10 @@ mod imp {
             self.zip(o, |a, b| bits(a <= b))
         }
         #[inline(always)]
+        pub fn lt(self, o: Self) -> Self {
+            self.zip(o, |a, b| bits(a < b))
+        }
+        #[inline(always)]
         pub fn ne(self, o: Self) -> Self {
             self.zip(o, |a, b| bits(a != b))
         }
@@ -181,6 +189,8 @@ mod tests {
         assert_eq!(a.max(b).to_array(), [1.0, 4.0, 3.5, f32::INFINITY]);
         assert_eq!(a.le(b).mask(), 0b0110);
         assert_eq!(a.ne(b).mask(), 0b1011);
+        assert_eq!(a.lt(b).mask(), 0b0010);
+        assert_eq!(F4::splat(-0.0).lt(F4::splat(0.0)).mask(), 0);
         assert_eq!(a.le(b).and(a.ne(b)).mask(), 0b0010);
         assert_eq!(a.le(b).or(a.ne(b)).mask(), 0b1111);
         assert_eq!(a.xor(F4::splat(-0.0)).to_array(), [-1.0, 2.0, -3.5, f32::NEG_INFINITY]);
@@ -196,6 +206,7 @@ mod tests {
         assert_eq!(nan.max(one).to_array(), [1.0; 4]);
         assert!(one.min(nan).to_array()[0].is_nan());
         assert_eq!(nan.le(one).mask(), 0);
+        assert_eq!(nan.lt(one).mask() | one.lt(nan).mask(), 0);
         assert_eq!(nan.ne(nan).mask(), 0b1111);
     }
 }

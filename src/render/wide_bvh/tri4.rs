@@ -1,7 +1,13 @@
 //! Four triangles in structure-of-arrays form, tested against one ray at once.
 //!
-//! The test is Möller-Trumbore in the form obvhs's `RtTriangle` uses (v0, e1 = v0 - v1,
-//! e2 = v2 - v0, ng = e1 x e2), lane by lane, so that hits and barycentrics agree with it.
+//! The test is Woop, Benthin and Wald's watertight ray/triangle test (JCGT 2(1), 2013): the
+//! vertices are moved into a frame where the ray runs along +z (a permutation and a shear),
+//! and the three 2-D edge functions decide inside/outside. Two triangles that share an edge
+//! compute that edge's function from the same two transformed vertices, so they get exactly
+//! negated values, and a value of exactly zero counts as inside for both: a ray through a
+//! shared edge or vertex hits at least one of the triangles. Moller-Trumbore, which the
+//! tracer used before, builds each triangle's edges from its own first vertex and can miss
+//! both (a closed box then leaks light along its seams).
 use super::simd::F4;
 use glam::Vec3;
 
@@ -11,26 +17,31 @@ pub const EMPTY_SLOT: u32 = u32::MAX;
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
 pub struct Tri4 {
-    v0: [F4; 3],
-    e1: [F4; 3],
-    e2: [F4; 3],
-    ng: [F4; 3],
+    /// The three vertices of each lane, each as x, y, z lanes.
+    v: [[F4; 3]; 3],
     /// Triangle slot of each lane (index into `Geometry::tris`), or EMPTY_SLOT.
     pub slots: [u32; 4],
 }
 
-/// A ray with what the 4-wide tests reuse: origin and direction broadcast to four lanes.
+/// A ray with what the 4-wide tests reuse: the origin broadcast to four lanes, the axis
+/// permutation (kz the dominant axis of the direction) and the shear of the watertight test.
 pub struct Ray4 {
-    pub o: [F4; 3],
-    pub d: [F4; 3],
+    o: [F4; 3],
+    k: [usize; 3],
+    shear: [F4; 3],
 }
 
 impl Ray4 {
     pub fn new(o: Vec3, d: Vec3) -> Self {
-        Ray4 {
-            o: [F4::splat(o.x), F4::splat(o.y), F4::splat(o.z)],
-            d: [F4::splat(d.x), F4::splat(d.y), F4::splat(d.z)],
+        let kz = d.abs().max_position();
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        // Swapping x and y when the ray runs along -z keeps the triangles' winding.
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
         }
+        let shear = [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]];
+        Ray4 { o: [F4::splat(o.x), F4::splat(o.y), F4::splat(o.z)], k: [kx, ky, kz], shear: shear.map(F4::splat) }
     }
 }
 
@@ -39,67 +50,66 @@ pub struct BlockHits {
     /// Bit i set when lane i hits.
     pub mask: u32,
     pub t: [f32; 4],
+    /// Weight of the second vertex.
     pub u: F4,
+    /// Weight of the third vertex.
     pub v: F4,
-}
-
-#[inline(always)]
-fn cross(a: [F4; 3], b: [F4; 3]) -> [F4; 3] {
-    [a[1].mul(b[2]).sub(a[2].mul(b[1])), a[2].mul(b[0]).sub(a[0].mul(b[2])), a[0].mul(b[1]).sub(a[1].mul(b[0]))]
-}
-
-#[inline(always)]
-fn dot(a: [F4; 3], b: [F4; 3]) -> F4 {
-    a[0].mul(b[0]).add(a[1].mul(b[1])).add(a[2].mul(b[2]))
 }
 
 impl Tri4 {
     /// Packs up to four triangles (vertices, slot); missing lanes are EMPTY_SLOT.
     pub fn new(tris: &[([Vec3; 3], u32)]) -> Self {
         assert!(!tris.is_empty() && tris.len() <= 4, "a block holds 1 to 4 triangles");
-        let lane = |i: usize| tris.get(i).map_or(([Vec3::ZERO; 3], EMPTY_SLOT), |&t| t);
-        let mut v0 = [[0.0f32; 4]; 3];
-        let mut e1 = v0;
-        let mut e2 = v0;
-        let mut ng = v0;
+        let mut v = [[[0.0f32; 4]; 3]; 3];
         let mut slots = [EMPTY_SLOT; 4];
-        for i in 0..4 {
-            let (p, slot) = lane(i);
-            let (a, b) = (p[0] - p[1], p[2] - p[0]);
-            let n = a.cross(b);
-            for k in 0..3 {
-                v0[k][i] = p[0][k];
-                e1[k][i] = a[k];
-                e2[k][i] = b[k];
-                ng[k][i] = n[k];
+        for (i, (p, slot)) in tris.iter().enumerate() {
+            for (j, vertex) in p.iter().enumerate() {
+                for k in 0..3 {
+                    v[j][k][i] = vertex[k];
+                }
             }
-            slots[i] = slot;
+            slots[i] = *slot;
         }
-        Tri4 { v0: v0.map(F4::new), e1: e1.map(F4::new), e2: e2.map(F4::new), ng: ng.map(F4::new), slots }
+        Tri4 { v: v.map(|vertex| vertex.map(F4::new)), slots }
     }
 
-    /// The lanes hit at t in [tmin, tmax]. Empty lanes have a zero normal, so the det != 0 test
-    /// rejects them; it also rejects rays parallel to a triangle's plane.
+    /// The lanes hit at t in [tmin, tmax]. Empty lanes are degenerate (all vertices at the
+    /// origin), so their determinant is zero and the det != 0 test rejects them, as it rejects
+    /// rays that graze a triangle's plane.
     ///
-    /// The inside and range tests run on the numerators with the sign of the determinant folded
-    /// in (u det, v det, t det against |det|), and the division happens only when a lane hits:
-    /// most blocks a ray reaches it misses.
+    /// The range test runs on t det against |det| with the determinant's sign folded in, and
+    /// the division happens only when a lane hits: most blocks a ray reaches it misses.
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray4, tmin: F4, tmax: F4) -> BlockHits {
-        let c = [self.v0[0].sub(ray.o[0]), self.v0[1].sub(ray.o[1]), self.v0[2].sub(ray.o[2])];
-        let r = cross(ray.d, c);
-        let det = dot(self.ng, ray.d);
+        let [kx, ky, kz] = ray.k;
+        let [sx, sy, sz] = ray.shear;
+        // Each vertex relative to the origin, sheared so that the ray runs along +z. The z
+        // scale (1 / d[kz]) is applied once to the distance below rather than to each vertex.
+        let moved = |p: &[F4; 3]| {
+            let (x, y, z) = (p[kx].sub(ray.o[kx]), p[ky].sub(ray.o[ky]), p[kz].sub(ray.o[kz]));
+            (x.sub(sx.mul(z)), y.sub(sy.mul(z)), z)
+        };
+        let (ax, ay, az) = moved(&self.v[0]);
+        let (bx, by, bz) = moved(&self.v[1]);
+        let (cx, cy, cz) = moved(&self.v[2]);
+        // Edge functions (scaled barycentrics of the first, second and third vertex).
+        let e0 = cx.mul(by).sub(cy.mul(bx));
+        let e1 = ax.mul(cy).sub(ay.mul(cx));
+        let e2 = bx.mul(ay).sub(by.mul(ax));
+        let zero = F4::splat(0.0);
+        // Outside when the edge functions have both signs; zeros (either sign) count as inside.
+        let some_negative = e0.min(e1).min(e2).lt(zero);
+        let some_positive = zero.lt(e0.max(e1).max(e2));
+        let outside = some_negative.and(some_positive).mask();
+        let det = e0.add(e1).add(e2);
+        let t = sz.mul(e0.mul(az).add(e1.mul(bz)).add(e2.mul(cz)));
         let sign = det.and(F4::splat(-0.0));
         let abs_det = det.xor(sign);
-        let u = dot(r, self.e2).xor(sign);
-        let v = dot(r, self.e1).xor(sign);
-        let w = abs_det.sub(u).sub(v);
-        let t = dot(self.ng, c).xor(sign);
-        // Inside when u, v and w all have a clear sign bit (as RtTriangle: -0.0 is outside), and
-        // the comparisons are false for NaN.
-        let outside = u.or(v).or(w).mask();
-        let ok = det.ne(F4::splat(0.0)).and(abs_det.mul(tmin).le(t)).and(t.le(abs_det.mul(tmax))).mask();
+        let t = t.xor(sign);
+        // The comparisons are false for NaN, so a NaN lane never hits.
+        let ok = det.ne(zero).and(abs_det.mul(tmin).le(t)).and(t.le(abs_det.mul(tmax))).mask();
         let mask = ok & !outside & 0xf;
+        let (u, v) = (e1.xor(sign), e2.xor(sign));
         if mask == 0 {
             return BlockHits { mask, t: [f32::INFINITY; 4], u, v };
         }
@@ -112,6 +122,7 @@ impl Tri4 {
 mod tests {
     use super::*;
     use obvhs::{ray::Ray, rt_triangle::RtTriangle};
+    use std::f32::consts::TAU;
 
     #[test]
     fn lanes_agree_with_obvhs_triangle_test() {
@@ -141,15 +152,82 @@ mod tests {
                 let tri = RtTriangle::new(p[0].into(), p[1].into(), p[2].into());
                 let ray = Ray::new(o.into(), d.into(), 0.0, 10.0);
                 let t = tri.intersect(&ray);
+                let b = tri.compute_barycentric(&ray);
+                // The two tests may round differently within a hair of an edge.
+                if b.x.min(b.y).min(1.0 - b.x - b.y).abs() < 1e-5 {
+                    continue;
+                }
                 assert_eq!(got.mask >> i & 1 == 1, t.is_finite(), "lane {i}");
                 if t.is_finite() {
                     hits += 1;
-                    assert!((got.t[i] - t).abs() <= 1e-6 * t.max(1.0));
-                    let b = tri.compute_barycentric(&ray);
-                    assert!((u[i] - b.x).abs() < 1e-5 && (v[i] - b.y).abs() < 1e-5);
+                    assert!((got.t[i] - t).abs() <= 1e-5 * t.max(1.0), "{} vs {t}", got.t[i]);
+                    assert!((u[i] - b.x).abs() < 1e-4 && (v[i] - b.y).abs() < 1e-4);
                 }
             }
         }
         assert!(hits > 200, "{hits}");
+    }
+
+    /// A fan of triangles around one vertex, each sharing an edge with the next: rays aimed
+    /// exactly at the shared vertex and at points on the shared edges, from many directions
+    /// (both windings, both sides), must hit at least one triangle of the fan.
+    #[test]
+    fn rays_through_shared_edges_and_vertices_never_fall_through() {
+        let centre = Vec3::new(0.3, -0.2, 0.7);
+        let (a, b) = (Vec3::new(0.37, 0.11, -0.92).normalize(), Vec3::new(-0.5, 0.8, 0.2));
+        let (e1, e2) = (a.cross(b).normalize(), a);
+        let e2 = e2.cross(e1).normalize();
+        let n = 7;
+        let rim = |k: usize| {
+            let k = k % n;
+            let phi = TAU * k as f32 / n as f32 + 0.1;
+            centre + (e1 * phi.cos() + e2 * phi.sin()) * (1.0 + 0.3 * (k as f32).sin())
+        };
+        let tris: Vec<([Vec3; 3], u32)> = (0..n).map(|k| ([centre, rim(k), rim(k + 1)], k as u32)).collect();
+        let blocks: Vec<Tri4> = tris.chunks(4).map(Tri4::new).collect();
+        let mut targets = vec![centre];
+        for k in 0..n {
+            for s in [0.1f32, 0.37, 0.5, 0.83] {
+                targets.push(centre.lerp(rim(k), s));
+            }
+        }
+        let mut s = 0x9e37_79b9_7f4a_7c15u64;
+        let mut f = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        let mut rays = 0;
+        for target in &targets {
+            for _ in 0..400 {
+                let o = target + Vec3::new(f(), f(), f()) * 4.0;
+                let d = (*target - o).normalize();
+                let ray = Ray4::new(o, d);
+                let hit = blocks.iter().any(|b| b.intersect(&ray, F4::splat(0.0), F4::splat(100.0)).mask != 0);
+                assert!(hit, "ray from {o} towards {target} fell through the fan");
+                rays += 1;
+            }
+        }
+        assert_eq!(rays, targets.len() * 400);
+    }
+
+    /// The barycentrics name the second and third vertex, as the shading code expects.
+    #[test]
+    fn barycentrics_and_distance_of_a_known_hit() {
+        let p = [Vec3::new(0.0, 0.0, 2.0), Vec3::new(1.0, 0.0, 2.0), Vec3::new(0.0, 1.0, 2.0)];
+        let block = Tri4::new(&[(p, 5)]);
+        for d in [Vec3::Z, -Vec3::Z] {
+            let o = Vec3::new(0.25, 0.5, 2.0) - d * 3.0;
+            let h = block.intersect(&Ray4::new(o, d), F4::splat(0.0), F4::splat(10.0));
+            assert_eq!(h.mask, 1);
+            assert!((h.t[0] - 3.0).abs() < 1e-6);
+            assert!((h.u.to_array()[0] - 0.25).abs() < 1e-6 && (h.v.to_array()[0] - 0.5).abs() < 1e-6);
+        }
+        // Out of range on either side.
+        let h = block.intersect(&Ray4::new(Vec3::new(0.25, 0.5, 0.0), Vec3::Z), F4::splat(2.5), F4::splat(10.0));
+        assert_eq!(h.mask, 0);
+        let h = block.intersect(&Ray4::new(Vec3::new(0.25, 0.5, 0.0), Vec3::Z), F4::splat(0.0), F4::splat(1.5));
+        assert_eq!(h.mask, 0);
     }
 }
