@@ -72,10 +72,6 @@ mod imp {
             F4(unsafe { _mm_and_ps(self.0, o.0) })
         }
         #[inline(always)]
-        pub fn or(self, o: Self) -> Self {
-            F4(unsafe { _mm_or_ps(self.0, o.0) })
-        }
-        #[inline(always)]
         pub fn xor(self, o: Self) -> Self {
             F4(unsafe { _mm_xor_ps(self.0, o.0) })
         }
@@ -157,10 +153,6 @@ mod imp {
             self.zip(o, |a, b| f32::from_bits(a.to_bits() & b.to_bits()))
         }
         #[inline(always)]
-        pub fn or(self, o: Self) -> Self {
-            self.zip(o, |a, b| f32::from_bits(a.to_bits() | b.to_bits()))
-        }
-        #[inline(always)]
         pub fn xor(self, o: Self) -> Self {
             self.zip(o, |a, b| f32::from_bits(a.to_bits() ^ b.to_bits()))
         }
@@ -192,7 +184,6 @@ mod tests {
         assert_eq!(a.lt(b).mask(), 0b0010);
         assert_eq!(F4::splat(-0.0).lt(F4::splat(0.0)).mask(), 0);
         assert_eq!(a.le(b).and(a.ne(b)).mask(), 0b0010);
-        assert_eq!(a.le(b).or(a.ne(b)).mask(), 0b1111);
         assert_eq!(a.xor(F4::splat(-0.0)).to_array(), [-1.0, 2.0, -3.5, f32::NEG_INFINITY]);
         assert_eq!(F4::new([-0.0, 0.0, -1.0, 1.0]).mask(), 0b0101);
         assert_eq!(F4::splat(2.0).to_array(), [2.0; 4]);
