@@ -1,5 +1,6 @@
 //! Per-pixel running estimates (f64 sums) and the parallel loop that adds samples to them.
 use super::job::{RenderError, RenderJob, StopCheck};
+use crate::render::huge_pages::filled;
 use crate::render::integrator::sample_from;
 use crate::render::sampler::PixelSampler;
 use crate::render::scene::Scene;
@@ -65,7 +66,7 @@ pub struct Film {
 
 impl Film {
     pub fn new(width: u32, height: u32) -> Self {
-        Film { width, height, pixels: vec![PixelEstimate::default(); width as usize * height as usize] }
+        Film { width, height, pixels: filled(width as usize * height as usize, PixelEstimate::default()) }
     }
 
     /// Traces `count(pixel_index)` more camera paths of `job` (its seed, bounces, integrand and

@@ -28,6 +28,9 @@ pub fn render(
     let deadline = halt.time_budget.map(|b| start + b);
     let gbuffer = job.method.spec().needs_gbuffer.then(|| Arc::new(GBuffer::build(&job.scene, &job.view)));
     let gbuffer_rays = gbuffer.as_ref().map_or(0, |g| g.pixels.len() as u64);
+    if gbuffer.is_some() {
+        tracing::debug!(seconds = start.elapsed().as_secs_f64(), "G-buffer built");
+    }
     let mut strategy = make_strategy(job);
     let mut error = ErrorEstimate::default();
     for pass in 0.. {
@@ -39,6 +42,7 @@ pub fn render(
         let ctx = PassContext { scene: &job.scene, job, view: &job.view, pass, stop: &stop, gbuffer: gbuffer.as_ref() };
         let PassOutput { mut frame, complete } = strategy.run_pass(&ctx)?;
         let elapsed = start.elapsed();
+        tracing::debug!(pass, complete, seconds = elapsed.as_secs_f64(), "pass done");
         frame.stats.rays_traced += gbuffer_rays;
         // A pass the deadline cut left most pixels as they were: the change since the previous
         // frame says little about the error, so a cut frame claims no estimate.

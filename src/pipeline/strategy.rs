@@ -48,8 +48,10 @@ pub struct SumOfParts {
 impl Strategy for SumOfParts {
     fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError> {
         let mut total: Option<PassOutput> = None;
-        for part in &mut self.parts {
+        for (i, part) in self.parts.iter_mut().enumerate() {
+            let start = std::time::Instant::now();
             let out = part.run_pass(ctx)?;
+            tracing::debug!(pass = ctx.pass, part = i, seconds = start.elapsed().as_secs_f64(), "part done");
             total = Some(match total {
                 None => out,
                 Some(acc) => {

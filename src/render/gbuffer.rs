@@ -4,6 +4,7 @@
 //! methods that need it: the uniform baseline never allocates one.
 use super::camera::Camera;
 use super::geometry::NONE;
+use super::huge_pages::filled;
 use super::material::Material;
 use super::scene::Scene;
 use glam::Vec3;
@@ -60,7 +61,7 @@ impl GBuffer {
     /// Traces one ray through every pixel centre of `cam`'s view (rays: width x height).
     pub fn build(scene: &Scene, cam: &Camera) -> GBuffer {
         let (w, h) = (cam.width as usize, cam.height as usize);
-        let mut pixels = vec![GSample::BACKGROUND; w * h];
+        let mut pixels = filled(w * h, GSample::BACKGROUND);
         pixels.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
             for (x, px) in row.iter_mut().enumerate() {
                 let dir = cam.direction(x as f32 + 0.5, y as f32 + 0.5);

@@ -4,12 +4,14 @@
 //! One file per concept: `camera` (the view), `sampler`, `geometry` (triangles and BVH;
 //! `wide_bvh` its traversal), `texture`, `material`, `light`, `scene` (the compiled scene, no
 //! camera), `integrator` (radiance along a path), `gbuffer` (one primary hit per pixel) and
-//! `filter` (the G-buffer-guided Gaussian gather the methods filter with).
+//! `filter` (the G-buffer-guided Gaussian gather the methods filter with); `huge_pages`
+//! allocates large arrays.
 pub mod camera;
 pub mod filter;
 pub mod frame_basis;
 pub mod gbuffer;
 pub mod geometry;
+pub mod huge_pages;
 pub mod integrator;
 pub mod light;
 pub mod material;

@@ -40,6 +40,7 @@ use crate::pipeline::strategy::{PassContext, PassOutput, Strategy};
 use crate::render::filter::{FilterKernel, FilterSurface};
 use crate::render::frame_basis::{cosine_hemisphere, to_world};
 use crate::render::gbuffer::GBuffer;
+use crate::render::huge_pages::filled;
 use crate::render::integrator::{direct_light, emitted, occlusion_ray, radiance_from, DirectLights};
 use crate::render::material::{GlossyModel, Material};
 use crate::render::sampler::{hash_words, PixelSampler};
@@ -202,7 +203,7 @@ impl IndirectStrategy {
     fn setup(&mut self, ctx: &PassContext) {
         let g = Arc::clone(ctx.gbuffer());
         self.d = g.pixel_sizes(ctx.view.position, self.opts.foreshortening);
-        self.sums = vec![PixelSums::default(); self.width * self.height];
+        self.sums = filled(self.width * self.height, PixelSums::default());
         // The surface is the filter's own work: it counts in the method's seconds.
         let t = Instant::now();
         self.surface = (self.mode != FilterMode::Adaptive).then(|| {

@@ -36,6 +36,7 @@ use crate::pipeline::strategy::{PassContext, PassOutput, Strategy};
 use crate::render::camera::Camera;
 use crate::render::filter::{FilterKernel, FilterOptions, FilterSurface};
 use crate::render::gbuffer::GBuffer;
+use crate::render::huge_pages::filled;
 use crate::render::integrator::{emitted, radiance_from, DirectLights, PathResult};
 use crate::render::light::{EmissionProfile, Light, RectLight};
 use crate::render::material::Material;
@@ -213,9 +214,9 @@ impl ShadowStrategy {
         let g = Arc::clone(ctx.gbuffer());
         self.d = g.pixel_sizes(ctx.view.position, self.opts.foreshortening);
         let n = self.width * self.height;
-        self.sums = vec![LightSums::default(); n * self.lights.len()];
-        self.other = vec![OtherSums::default(); n];
-        self.slopes = vec![Slopes::NONE; n * self.lights.len()];
+        self.sums = filled(n * self.lights.len(), LightSums::default());
+        self.other = filled(n, OtherSums::default());
+        self.slopes = filled(n * self.lights.len(), Slopes::NONE);
         // The surfaces are the filter's own work: they count in the method's seconds.
         let t = Instant::now();
         if self.mode != FilterMode::Adaptive {
@@ -380,7 +381,7 @@ impl ShadowStrategy {
         let r = self.opts.fill_radius as usize;
         let half_widths: Vec<usize> = (0..=r).map(|dy| ((r * r - dy * dy) as f64).sqrt().floor() as usize).collect();
         let sums = &self.sums;
-        let mut slopes = vec![Slopes::NONE; w * h * nl];
+        let mut slopes = filled(w * h * nl, Slopes::NONE);
         slopes.par_chunks_mut(BAND * w * nl).enumerate().for_each_init(Vec::new, |prefix, (band, out)| {
             let (y0, y1) = (band * BAND, (band * BAND + BAND).min(h));
             let p0 = y0.saturating_sub(r);

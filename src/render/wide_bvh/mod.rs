@@ -9,7 +9,6 @@
 //! test gives the entry distance of all children of a node; they are visited nearest first.
 //! Compared with obvhs's own compressed 8-wide traversal (CWBVH: quantised boxes, decoded per
 //! node, designed for GPUs), this spends fewer instructions per node on a CPU.
-mod huge_pages;
 mod node;
 mod simd;
 mod tri4;
@@ -135,13 +134,17 @@ impl WideBvh {
         // Leaves hang one level below the deepest inner node.
         let depth = if nodes.is_empty() { 0 } else { depth + 1 };
         let nodes = match width {
-            Width::Four => Nodes::Four(huge_pages::advise(nodes.iter().map(|n| Node4::new(n.0, n.1, n.2)).collect())),
+            Width::Four => Nodes::Four(crate::render::huge_pages::advise(
+                nodes.iter().map(|n| Node4::new(n.0, n.1, n.2)).collect(),
+            )),
             #[cfg(target_arch = "x86_64")]
-            Width::Eight => Nodes::Eight(huge_pages::advise(nodes.iter().map(|n| Node8::new(n.0, n.1, n.2)).collect())),
+            Width::Eight => Nodes::Eight(crate::render::huge_pages::advise(
+                nodes.iter().map(|n| Node8::new(n.0, n.1, n.2)).collect(),
+            )),
             #[cfg(not(target_arch = "x86_64"))]
             Width::Eight => unreachable!("eight-wide nodes fall back to four off x86-64"),
         };
-        WideBvh { nodes, blocks: huge_pages::advise(blocks), root, stack_need: (w - 1) * depth + 1 }
+        WideBvh { nodes, blocks: crate::render::huge_pages::advise(blocks), root, stack_need: (w - 1) * depth + 1 }
     }
 
     pub fn width(&self) -> Width {

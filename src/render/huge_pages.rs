@@ -1,10 +1,14 @@
-//! Large BVH arrays backed by 2 MiB pages where the kernel offers them.
+//! Large arrays backed by 2 MiB pages where the kernel offers them.
 //!
 //! Tracing a large mesh touches nodes and triangles all over tens of megabytes; with 4 KiB pages
-//! most of those accesses also miss the TLB. Linux hands out transparent huge pages to ranges
-//! marked with `madvise(MADV_HUGEPAGE)` (the default policy on many systems is "madvise", which
-//! gives them to no one else), and Embree marks its BVH memory the same way. The advice must come
-//! before the pages are first written, so the array is copied into a fresh, advised allocation.
+//! most of those accesses also miss the TLB. And a render's per-pixel buffers (sample sums,
+//! the G-buffer, the film) are written for the first time in pass 0, where every fresh 4 KiB
+//! page costs a kernel fault: at preview sizes those faults cost as much as the first pass's
+//! arithmetic, and 512 times fewer of them with huge pages. Linux hands out transparent huge
+//! pages to ranges marked with `madvise(MADV_HUGEPAGE)` (the default policy on many systems is
+//! "madvise", which gives them to no one else), and Embree marks its BVH memory the same way.
+//! The advice must come before the pages are first written.
+use rayon::prelude::*;
 
 /// Arrays smaller than this stay as they are (a few huge pages at most would be gained).
 const MIN_BYTES: usize = 4 << 20;
@@ -18,6 +22,18 @@ pub fn advise<T: Copy>(v: Vec<T>) -> Vec<T> {
     let mut out: Vec<T> = Vec::with_capacity(v.len());
     mark(out.as_ptr() as usize, bytes);
     out.extend_from_slice(&v);
+    out
+}
+
+/// `n` copies of `value` in memory advised to use huge pages (when large enough), written by
+/// the rayon pool's threads so that the first-touch cost is shared.
+pub fn filled<T: Clone + Send + Sync>(n: usize, value: T) -> Vec<T> {
+    let mut out: Vec<T> = Vec::with_capacity(n);
+    let bytes = n * std::mem::size_of::<T>();
+    if cfg!(target_os = "linux") && bytes >= MIN_BYTES {
+        mark(out.as_ptr() as usize, bytes);
+    }
+    out.par_extend(rayon::iter::repeat_n(value, n));
     out
 }
 
@@ -47,5 +63,14 @@ mod tests {
         assert_eq!(super::advise(big.clone()), big);
         let small = vec![1.5f32; 10];
         assert_eq!(super::advise(small.clone()), small);
+    }
+
+    #[test]
+    fn filled_holds_n_copies_at_every_size() {
+        for n in [0usize, 1, 1000, 3 << 20] {
+            let v = super::filled(n, [7u32, 9]);
+            assert_eq!(v.len(), n);
+            assert!(v.iter().all(|&x| x == [7, 9]));
+        }
     }
 }
