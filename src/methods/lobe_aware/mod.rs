@@ -1,0 +1,12 @@
+//! Specular lobe-aware filtering (Tokuyoshi 2015, "Specular Lobe-Aware Filtering and
+//! Upsampling for Interactive Indirect Illumination"): cross-bilateral weights that compare two
+//! pixels' reflection lobes, as spherical Gaussians built from the G-buffer, instead of their
+//! normals. `sg` holds the SG algebra, `lobe` the per-pixel lobes (App. B, D), `weights` the
+//! weights (Eqs. 3, 4, 11, 12; App. A).
+pub mod lobe;
+pub mod options;
+pub mod sg;
+pub mod weights;
+
+#[cfg(test)]
+mod tests;
