@@ -95,7 +95,11 @@ fn eq12_and_eq11_agree_as_methods_md_predicts() {
         (0..=180)
             .map(|d| {
                 let (a, b) = (Sg::new(DVec3::Z, l), Sg::new(at_angle(d as f64), l));
-                let w11 = mixture_weight(&[Weighted { amplitude: 1.0, lobe: a }], &[Weighted { amplitude: 1.0, lobe: b }], beta);
+                let w11 = mixture_weight(
+                    &[Weighted { amplitude: 1.0, lobe: a }],
+                    &[Weighted { amplitude: 1.0, lobe: b }],
+                    beta,
+                );
                 (w11 - lobe_weight(&a, &b, beta)).abs()
             })
             .fold(0.0, f64::max)
@@ -124,7 +128,8 @@ fn weights_are_one_for_a_pixel_with_itself_symmetric_bounded_and_fall_with_angle
         }
     }
     for l in [0.5, 10.0, 500.0] {
-        let w: Vec<f64> = (0..=180).map(|d| lobe_weight(&Sg::new(DVec3::Z, l), &Sg::new(at_angle(d as f64), l), 5.0)).collect();
+        let w: Vec<f64> =
+            (0..=180).map(|d| lobe_weight(&Sg::new(DVec3::Z, l), &Sg::new(at_angle(d as f64), l), 5.0)).collect();
         assert!(w.windows(2).all(|p| p[1] <= p[0]), "lambda {l}");
         if l <= 10.0 {
             assert!(w[180] < w[90], "opposite axes weigh less than perpendicular ones");
@@ -180,7 +185,11 @@ fn appendix_a_gaussian_weights_match_quadrature_of_normalised_gaussians() {
     let (vi, vj) = (ti + nu, tj + nu);
     let n = 200_000;
     let h = 20.0 / n as f64;
-    let q: f64 = (0..n).map(|k| -10.0 + (k as f64 + 0.5) * h).map(|x| g(x, xi, vi) / norm(vi) * g(x, xj, vj) / norm(vj)).sum::<f64>() * h;
+    let q: f64 = (0..n)
+        .map(|k| -10.0 + (k as f64 + 0.5) * h)
+        .map(|x| g(x, xi, vi) / norm(vi) * g(x, xj, vj) / norm(vj))
+        .sum::<f64>()
+        * h;
     let beta = 3.0;
     assert!((gaussian_weight(&[xi], &[xj], (ti, tj), nu, beta) - q.powf(beta)).abs() < 1e-9);
     // Equal tau: Eq. 2's Gaussian with variance (2 tau^2 + 2 nu^2) / beta.
@@ -217,7 +226,11 @@ fn weights_stay_finite_and_bounded_at_the_extremes() {
                         let w = lobe_weight(&a.smoothed(kappa), &b.smoothed(kappa), 20.0);
                         assert!(w.is_finite() && (0.0..=1.0).contains(&w), "{li} {lj} {ai} {aj}: {w}");
                     }
-                    let w = mixture_weight(&[Weighted { amplitude: 1.0, lobe: a }], &[Weighted { amplitude: 1e-30, lobe: b }], 20.0);
+                    let w = mixture_weight(
+                        &[Weighted { amplitude: 1.0, lobe: a }],
+                        &[Weighted { amplitude: 1e-30, lobe: b }],
+                        20.0,
+                    );
                     assert!(w.is_finite() && (0.0..=1.0).contains(&w), "eq 11 {li} {lj}: {w}");
                 }
             }

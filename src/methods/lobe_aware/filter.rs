@@ -1,0 +1,252 @@
+//! The cross-bilateral gather of Tokuyoshi 2015 (Eq. 1): each pixel's value becomes the
+//! weighted mean of its neighbours' with `W(i, j) = f(s_i, s_j) w_z(i, j) w_omega(i, j)`, a
+//! screen-space Gaussian f times the depth weight (Eq. 3) times the directional weight, either
+//! lobe-aware (Eq. 12) or the normal-aware baseline (Eq. 4).
+//!
+//! The screen-space kernel's width is the centre pixel's own (`Guide::sigma_px`), so a caller
+//! can narrow it pass by pass (the stream's consistency) or take it from a frequency analysis
+//! (AAF's per-pixel widths). The gather is the full 2-D one the paper defines, not a separable
+//! approximation: the weights are not separable, and its weight sums drive the adaptive
+//! re-render of Fig. 16. Rows run in parallel; the result does not depend on the thread count.
+use super::sg::Sg;
+use super::weights::{depth_weight, lobe_weight, normal_weight};
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// What the filter knows of one pixel: its G-buffer lobe and depth, and its kernel as a centre.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Guide {
+    /// A valid hit that has a value to contribute; invalid pixels pass through and feed no one.
+    pub valid: bool,
+    /// Distance from the camera (Eq. 3's z).
+    pub depth: f64,
+    /// The shading normal (the normal-aware weight's guide).
+    pub normal: DVec3,
+    /// The smoothed lobe (Eq. 10) of the component being filtered (the lobe-aware guide).
+    pub lobe: Sg,
+    /// Standard deviation of the screen-space kernel f, in pixels, when this pixel is a
+    /// centre; 0 keeps its value.
+    pub sigma_px: f64,
+}
+
+/// The directional weight.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Similarity {
+    /// Eq. 12 with power beta.
+    Lobe { beta: f64 },
+    /// Eq. 4 with variance sigma_n^2.
+    Normal { sigma_n2: f64 },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BilateralOptions {
+    pub similarity: Similarity,
+    /// Eq. 3's variance relative to the centre's depth squared.
+    pub sigma_z2_relative: f64,
+    /// The kernel radius is ceil(3 sigma_px), capped here (the paper times 8 and 16 px).
+    pub max_radius: usize,
+}
+
+/// The filtered image and, per pixel, the sum of its weights (the denominator of Eq. 1; at
+/// least 1 for a filtered centre, whose own weight is 1).
+pub struct Filtered {
+    pub values: Vec<[f64; 3]>,
+    pub weight_sums: Vec<f64>,
+    /// Non-finite input values, replaced by 0 before filtering (methods.md §0.2).
+    pub non_finite: usize,
+}
+
+impl Similarity {
+    fn weight(&self, c: &Guide, j: &Guide) -> f64 {
+        match *self {
+            Similarity::Lobe { beta } => lobe_weight(&c.lobe, &j.lobe, beta),
+            Similarity::Normal { sigma_n2 } => normal_weight(c.normal, j.normal, sigma_n2),
+        }
+    }
+}
+
+/// Kernel radius in pixels of a centre.
+fn radius(g: &Guide, o: &BilateralOptions) -> usize {
+    if !(g.valid && g.sigma_px > 0.0) {
+        return 0;
+    }
+    ((3.0 * g.sigma_px).ceil() as usize).clamp(1, o.max_radius)
+}
+
+/// Filters `values` (row-major, `width` wide, one per guide).
+pub fn filter(guides: &[Guide], width: usize, values: &[[f64; 3]], o: &BilateralOptions) -> Filtered {
+    assert_eq!(guides.len(), values.len(), "one guide per value");
+    let height = guides.len().checked_div(width).unwrap_or(0);
+    let mut non_finite = 0;
+    let clean: Vec<[f64; 3]> = values
+        .iter()
+        .map(|v| {
+            if v.iter().all(|x| x.is_finite()) {
+                *v
+            } else {
+                non_finite += 1;
+                [0.0; 3]
+            }
+        })
+        .collect();
+    let rows: Vec<(Vec<[f64; 3]>, Vec<f64>)> = (0..height)
+        .into_par_iter()
+        .map(|y| {
+            let mut out = Vec::with_capacity(width);
+            let mut sums = Vec::with_capacity(width);
+            for x in 0..width {
+                let (v, s) = gather(guides, &clean, width, height, x, y, o);
+                out.push(v);
+                sums.push(s);
+            }
+            (out, sums)
+        })
+        .collect();
+    let (mut values, mut weight_sums) = (Vec::with_capacity(guides.len()), Vec::with_capacity(guides.len()));
+    for (v, s) in rows {
+        values.extend(v);
+        weight_sums.extend(s);
+    }
+    Filtered { values, weight_sums, non_finite }
+}
+
+fn gather(
+    guides: &[Guide],
+    values: &[[f64; 3]],
+    width: usize,
+    height: usize,
+    x: usize,
+    y: usize,
+    o: &BilateralOptions,
+) -> ([f64; 3], f64) {
+    let i = y * width + x;
+    let c = &guides[i];
+    let r = radius(c, o);
+    if r == 0 {
+        return (values[i], if c.valid { 1.0 } else { 0.0 });
+    }
+    let inv_2s2 = 1.0 / (2.0 * c.sigma_px * c.sigma_px);
+    let sigma_z2 = o.sigma_z2_relative * c.depth * c.depth;
+    let (mut sum, mut wsum) = ([0.0f64; 3], 0.0f64);
+    for yy in y.saturating_sub(r)..=(y + r).min(height - 1) {
+        let dy = yy as f64 - y as f64;
+        for xx in x.saturating_sub(r)..=(x + r).min(width - 1) {
+            let j = yy * width + xx;
+            let g = &guides[j];
+            if !g.valid {
+                continue;
+            }
+            let w = if j == i {
+                1.0
+            } else {
+                let dx = xx as f64 - x as f64;
+                let f = (-(dx * dx + dy * dy) * inv_2s2).exp();
+                f * depth_weight(c.depth, g.depth, sigma_z2) * o.similarity.weight(c, g)
+            };
+            if w > 0.0 {
+                for k in 0..3 {
+                    sum[k] += w * values[j][k];
+                }
+                wsum += w;
+            }
+        }
+    }
+    (sum.map(|s| s / wsum), wsum)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::methods::lobe_aware::lobe::{diffuse, specular};
+    use crate::methods::lobe_aware::options::LobeOptions;
+    use crate::render::material::GlossyModel;
+
+    fn opts(similarity: Similarity) -> BilateralOptions {
+        BilateralOptions { similarity, sigma_z2_relative: 0.01, max_radius: 16 }
+    }
+
+    fn flat(w: usize, h: usize, sigma_px: f64) -> Vec<Guide> {
+        vec![Guide { valid: true, depth: 4.0, normal: DVec3::Z, lobe: diffuse(DVec3::Z), sigma_px }; w * h]
+    }
+
+    #[test]
+    fn a_constant_image_stays_constant_and_identical_guides_give_a_gaussian_blur() {
+        let (w, h) = (21, 13);
+        let guides = flat(w, h, 2.0);
+        let c = vec![[0.25, 1.0, 3.0]; w * h];
+        for s in [Similarity::Lobe { beta: 20.0 }, Similarity::Normal { sigma_n2: 0.01 }] {
+            let out = filter(&guides, w, &c, &opts(s));
+            assert!(out.values.iter().all(|v| (v[0] - 0.25).abs() < 1e-12 && (v[2] - 3.0).abs() < 1e-12));
+            assert!(out.weight_sums.iter().all(|&s| s >= 1.0));
+        }
+        // One bright pixel: the output is the normalised screen-space Gaussian around it.
+        let mut v = vec![[0.0; 3]; w * h];
+        v[6 * w + 10] = [1.0; 3];
+        let out = filter(&guides, w, &v, &opts(Similarity::Lobe { beta: 20.0 }));
+        let g = |dx: f64, dy: f64| (-(dx * dx + dy * dy) / 8.0).exp();
+        let norm: f64 = (-6..=6).flat_map(|dy| (-6..=6).map(move |dx| g(dx as f64, dy as f64))).sum();
+        let got = out.values[6 * w + 12][0];
+        assert!((got - g(2.0, 0.0) / norm).abs() < 1e-12, "{got}");
+    }
+
+    /// Two glossy halves of one plane, Blinn-Phong exponents 10 and 10,000, with different
+    /// light: the normals agree, so the normal-aware weight blurs across the edge; the lobes
+    /// differ, so the lobe-aware weight keeps the halves apart (Tokuyoshi's Fig. 5 and 7).
+    #[test]
+    fn lobe_aware_weights_keep_an_edge_of_glossiness_that_normal_aware_blur() {
+        let (w, h) = (24, 8);
+        let psi = DVec3::new(0.3, 0.0, 1.0).normalize();
+        let lo = LobeOptions::default();
+        let mut guides = flat(w, h, 3.0);
+        let mut values = vec![[0.0; 3]; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                let m = if x < w / 2 { 10.0 } else { 10_000.0 };
+                guides[y * w + x].lobe = specular(GlossyModel::BlinnPhong, m, DVec3::Z, psi, &lo).smoothed(100.0);
+                values[y * w + x] = if x < w / 2 { [1.0; 3] } else { [5.0; 3] };
+            }
+        }
+        let edge = 4 * w + w / 2 - 1;
+        let lobe = filter(&guides, w, &values, &opts(Similarity::Lobe { beta: 20.0 }));
+        let normal = filter(&guides, w, &values, &opts(Similarity::Normal { sigma_n2: 0.01 }));
+        assert!((lobe.values[edge][0] - 1.0).abs() < 0.01, "lobe-aware: {}", lobe.values[edge][0]);
+        assert!(normal.values[edge][0] > 1.5, "normal-aware: {}", normal.values[edge][0]);
+    }
+
+    #[test]
+    fn invalid_pixels_pass_through_and_feed_no_one_and_non_finite_values_are_dropped() {
+        let (w, h) = (9, 9);
+        let mut guides = flat(w, h, 2.0);
+        let mut values = vec![[1.0; 3]; w * h];
+        guides[40].valid = false;
+        values[40] = [100.0; 3];
+        values[41] = [f64::NAN, 1.0, 1.0];
+        let out = filter(&guides, w, &values, &opts(Similarity::Lobe { beta: 20.0 }));
+        assert_eq!(out.values[40], [100.0; 3]);
+        assert_eq!(out.non_finite, 1);
+        assert!(out.values.iter().enumerate().all(|(i, v)| i == 40 || v.iter().all(|x| x.is_finite() && *x <= 1.0)));
+        // Zero width keeps the value.
+        let mut g = flat(w, h, 0.0);
+        g[3].sigma_px = 0.0;
+        let kept = filter(&g, w, &values, &opts(Similarity::Normal { sigma_n2: 0.01 }));
+        assert_eq!(kept.values[3], values[3]);
+    }
+
+    #[test]
+    fn the_result_does_not_depend_on_the_thread_count() {
+        let (w, h) = (31, 17);
+        let mut guides = flat(w, h, 2.5);
+        let mut values = vec![[0.0; 3]; w * h];
+        for (i, (g, v)) in guides.iter_mut().zip(values.iter_mut()).enumerate() {
+            g.depth = 3.0 + (i % 7) as f64 * 0.1;
+            g.lobe = Sg::new(DVec3::new((i % 5) as f64 * 0.1, 0.0, 1.0), 5.0 + (i % 3) as f64);
+            *v = [(i % 11) as f64, 1.0, 0.5];
+        }
+        let o = opts(Similarity::Lobe { beta: 13.1 });
+        let one =
+            rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| filter(&guides, w, &values, &o));
+        let two =
+            rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap().install(|| filter(&guides, w, &values, &o));
+        assert_eq!(one.values, two.values);
+    }
+}
