@@ -234,6 +234,7 @@ proptest! {
             integrand: Default::default(),
             pixel_centers: false,
             indirect: Default::default(),
+            lobe: Default::default(),
         };
         let mut last: Option<Frame> = None;
         render(&job, &CancelToken::new(), &mut |f| { last = Some(f.clone()); true }).expect("render");

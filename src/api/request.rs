@@ -124,6 +124,7 @@ pub fn prepare(
             integrand,
             pixel_centers: settings.pixel_centers,
             indirect: Default::default(),
+            lobe: Default::default(),
         },
         info: RenderInfo {
             scene: scene_label.to_string(),

@@ -45,6 +45,7 @@ pub fn job(
         integrand: Default::default(),
         pixel_centers: false,
         indirect: Default::default(),
+        lobe: Default::default(),
     }
 }
 

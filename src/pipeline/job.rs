@@ -4,6 +4,7 @@
 //! strategies, the pass loop, the runner and the front ends can all import it downwards.
 use crate::methods::aaf_indirect::options::IndirectOptions;
 use crate::methods::aaf_shadows::options::AafOptions;
+use crate::methods::lobe_aware::options::LobeAwareOptions;
 use crate::render::camera::Camera;
 pub use crate::render::integrator::Integrand;
 use crate::render::scene::Scene;
@@ -54,6 +55,8 @@ pub enum Method {
     Aaf,
     Adaptive,
     UniformFiltered,
+    LobeAware,
+    NormalAware,
 }
 
 /// One render: the compiled scene, the view it is seen from, the method and its options.
@@ -78,6 +81,8 @@ pub struct RenderJob {
     pub aaf: AafOptions,
     /// Parameters of the AAF family of methods (indirect light).
     pub indirect: IndirectOptions,
+    /// Parameters of the lobe-aware filter (Tokuyoshi 2015) and its normal-aware baseline.
+    pub lobe: LobeAwareOptions,
 }
 
 impl RenderJob {
@@ -96,6 +101,7 @@ impl RenderJob {
             pixel_centers: false,
             aaf: AafOptions::default(),
             indirect: IndirectOptions::default(),
+            lobe: LobeAwareOptions::default(),
         }
     }
 

@@ -44,7 +44,7 @@ pub const METHODS: &[MethodSpec] = &[
         summary: "axis-aligned filtering of soft shadows (Mehta 2012) and indirect light (Mehta 2013)",
         filters: true,
         needs_gbuffer: true,
-        components: parts::component_names,
+        components: |job| parts::component_names(job, FilterMode::Aaf),
         build: |job| parts::build(job, FilterMode::Aaf),
     },
     MethodSpec {
@@ -54,7 +54,7 @@ pub const METHODS: &[MethodSpec] = &[
         summary: "AAF's adaptive sample counts without its filter (a baseline)",
         filters: false,
         needs_gbuffer: true,
-        components: parts::component_names,
+        components: |job| parts::component_names(job, FilterMode::Adaptive),
         build: |job| parts::build(job, FilterMode::Adaptive),
     },
     MethodSpec {
@@ -64,8 +64,28 @@ pub const METHODS: &[MethodSpec] = &[
         summary: "the same samples everywhere and a fixed-width filter (a baseline)",
         filters: true,
         needs_gbuffer: true,
-        components: parts::component_names,
+        components: |job| parts::component_names(job, FilterMode::UniformFiltered),
         build: |job| parts::build(job, FilterMode::UniformFiltered),
+    },
+    MethodSpec {
+        method: Method::LobeAware,
+        name: "lobe-aware",
+        proto: proto::Method::LobeAware,
+        summary: "indirect light filtered with specular lobe-aware weights (Tokuyoshi 2015)",
+        filters: true,
+        needs_gbuffer: true,
+        components: |job| parts::component_names(job, FilterMode::LobeAware),
+        build: |job| parts::build(job, FilterMode::LobeAware),
+    },
+    MethodSpec {
+        method: Method::NormalAware,
+        name: "normal-aware",
+        proto: proto::Method::NormalAware,
+        summary: "indirect light filtered with normal-aware weights (Tokuyoshi's baseline, Eq. 4)",
+        filters: true,
+        needs_gbuffer: true,
+        components: |job| parts::component_names(job, FilterMode::NormalAware),
+        build: |job| parts::build(job, FilterMode::NormalAware),
     },
 ];
 
@@ -74,7 +94,14 @@ pub const METHODS: &[MethodSpec] = &[
 pub const DEFAULT_METHOD: Method = Method::Aaf;
 
 impl Method {
-    pub const ALL: [Method; 4] = [Method::Uniform, Method::Aaf, Method::Adaptive, Method::UniformFiltered];
+    pub const ALL: [Method; 6] = [
+        Method::Uniform,
+        Method::Aaf,
+        Method::Adaptive,
+        Method::UniformFiltered,
+        Method::LobeAware,
+        Method::NormalAware,
+    ];
 
     /// This method's row.
     pub fn spec(self) -> &'static MethodSpec {
@@ -130,7 +157,7 @@ mod tests {
         }
         assert_eq!(Method::from_proto(proto::Method::Unspecified), None);
         // Every wire value but UNSPECIFIED has a row.
-        for v in 1..=4 {
+        for v in 1..=6 {
             let m = proto::Method::try_from(v).unwrap();
             assert!(Method::from_proto(m).is_some(), "{m:?} has no row");
         }

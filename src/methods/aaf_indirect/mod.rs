@@ -32,6 +32,9 @@ pub mod params;
 
 pub use options::IndirectOptions;
 
+use super::lobe_aware::filter::{self, BilateralOptions, Guide, Similarity};
+use super::lobe_aware::lobe;
+use super::lobe_aware::options::LobeAwareOptions;
 use super::mode::FilterMode;
 use crate::pipeline::film::{mean, Tally};
 use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
@@ -144,6 +147,11 @@ pub struct IndirectStrategy {
     /// `adaptive`, which does not filter.
     surface: Option<FilterSurface>,
     sums: Vec<PixelSums>,
+    /// Tokuyoshi's guides (lobes, depths, normals) per part, for the lobe- and normal-aware
+    /// modes; built once per render.
+    guides: Vec<Vec<Guide>>,
+    lobe_opts: LobeAwareOptions,
+    bounces: u32,
     /// Projected pixel size per pixel.
     d: Vec<f64>,
     seed: u64,
@@ -170,6 +178,9 @@ impl IndirectStrategy {
             gbuffer: None,
             surface: None,
             sums: Vec::new(),
+            guides: Vec::new(),
+            lobe_opts: job.lobe,
+            bounces: job.bounces,
             d: Vec::new(),
             seed: hash_words(&[job.seed, STREAM]),
             rays: 0,
@@ -206,7 +217,10 @@ impl IndirectStrategy {
         self.sums = filled(self.width * self.height, PixelSums::default());
         // The surface is the filter's own work: it counts in the method's seconds.
         let t = Instant::now();
-        self.surface = (self.mode != FilterMode::Adaptive).then(|| {
+        if self.mode.tokuyoshi() {
+            self.guides = self.parts().iter().map(|&part| self.guides_of(ctx, &g, part)).collect();
+        }
+        self.surface = (self.mode != FilterMode::Adaptive && !self.mode.tokuyoshi()).then(|| {
             FilterSurface::new(g.pixels.len(), self.width, &self.opts.filter, |p| {
                 let s = &g.pixels[p];
                 (s.position.as_dvec3(), s.normal, s.object)
@@ -214,6 +228,68 @@ impl IndirectStrategy {
         });
         self.method_seconds += t.elapsed().as_secs_f64();
         self.gbuffer = Some(g);
+    }
+
+    /// Tokuyoshi's guides of `part` from the G-buffer: the diffuse lobe about the normal, or
+    /// the glossy pixel's specular lobe (App. B), smoothed with kappa (Eq. 10).
+    fn guides_of(&self, ctx: &PassContext, g: &GBuffer, part: Part) -> Vec<Guide> {
+        let o = &self.lobe_opts;
+        let kappa = o.kappa(self.bounces);
+        let camera = ctx.view.position.as_dvec3();
+        g.pixels
+            .par_iter()
+            .map(|s| {
+                let n = s.normal.as_dvec3();
+                let position = s.position.as_dvec3();
+                let psi = (camera - position).normalize_or_zero();
+                let lobe = match part {
+                    Part::Diffuse => lobe::diffuse(n),
+                    Part::Glossy => {
+                        lobe::specular(glossy_model(ctx.scene, s.material), s.exponent as f64, n, psi, &o.lobe)
+                    }
+                };
+                Guide {
+                    valid: s.is_valid() && !s.emitter,
+                    depth: s.depth as f64,
+                    normal: n,
+                    lobe: lobe.smoothed(kappa),
+                    sigma_px: 0.0,
+                }
+            })
+            .collect()
+    }
+
+    /// Filters the untextured light of `part` with Tokuyoshi's gather (Eq. 1): the screen
+    /// kernel narrows with the component's samples per pixel (`LobeAwareOptions::sigma_px`),
+    /// and pixels whose samples found no reflecting surface stay out.
+    fn filter_tokuyoshi(&self, part: Part, light: &mut Vec<[f64; 3]>, part_width: &mut [f32], width_px: &mut [f32]) {
+        let o = &self.lobe_opts;
+        let index = self.parts().iter().position(|&p| p == part).expect("guides for every part");
+        let initial = self.opts.initial_samples.max(1) as f64;
+        let guides: Vec<Guide> = self.guides[index]
+            .par_iter()
+            .zip(&self.sums)
+            .map(|(g, s)| {
+                let c = part.of(s);
+                let valid = g.valid && c.surface > 0;
+                Guide { valid, sigma_px: if valid { o.sigma_px(c.n as f64, initial) } else { 0.0 }, ..*g }
+            })
+            .collect();
+        let similarity = match self.mode {
+            FilterMode::NormalAware => Similarity::Normal { sigma_n2: o.weights.sigma_n2 },
+            _ => Similarity::Lobe { beta: o.weights.beta },
+        };
+        let opts = BilateralOptions {
+            similarity,
+            sigma_z2_relative: o.weights.sigma_z2_relative,
+            max_radius: o.max_radius,
+            gather: o.gather,
+        };
+        *light = filter::filter(&guides, self.width, light, &opts).values;
+        for ((pw, wp), g) in part_width.iter_mut().zip(width_px.iter_mut()).zip(&guides) {
+            *pw = g.sigma_px as f32;
+            *wp = wp.max(*pw);
+        }
     }
 
     /// The reflector distances and bandlimit of pixel `p` for `part`; None when its initial
@@ -249,7 +325,7 @@ impl IndirectStrategy {
                 let s = &self.sums[p];
                 let count = |part: Part| -> u32 {
                     let have = part.of(s).n;
-                    if self.mode == FilterMode::UniformFiltered {
+                    if self.mode.uniform_samples() {
                         return initial.saturating_mul(1u32 << (pass - 1).min(20)).max(have);
                     }
                     let Some(r) = self.reflectors(scene, p, part) else { return floor.max(have) };
@@ -338,6 +414,9 @@ impl IndirectStrategy {
             let light_mean = |p: usize| mean(at(p).light, at(p).surface);
             let mut light: Vec<[f64; 3]> = (0..n).into_par_iter().map(light_mean).collect();
             let mut part_width = vec![0.0f32; n];
+            if self.mode.tokuyoshi() {
+                self.filter_tokuyoshi(part, &mut light, &mut part_width, &mut width_px);
+            }
             if let Some(surface) = &self.surface {
                 let mu = self.mu(pass);
                 let kernels: Vec<FilterKernel> = (0..n)

@@ -37,6 +37,7 @@ fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64, bounces: u32) 
         integrand: Integrand::Radiance,
         pixel_centers: false,
         indirect: IndirectOptions::default(),
+        lobe: Default::default(),
     }
 }
 

@@ -291,7 +291,8 @@ impl ShadowStrategy {
                 let (pixel, l) = (k / nl, k % nl);
                 let s = &self.sums[k];
                 match self.mode {
-                    FilterMode::UniformFiltered => {
+                    // (Tokuyoshi's modes never build this strategy; they would sample uniformly.)
+                    FilterMode::UniformFiltered | FilterMode::LobeAware | FilterMode::NormalAware => {
                         let n = sparse.saturating_mul(1u32 << (pass - 1).min(20));
                         Target { n, r: n }
                     }

@@ -68,6 +68,7 @@ fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64) -> RenderJob {
         integrand: Default::default(),
         pixel_centers: false,
         indirect: Default::default(),
+        lobe: Default::default(),
     }
 }
 

@@ -1,15 +1,18 @@
 //! The cross-bilateral gather of Tokuyoshi 2015 (Eq. 1): each pixel's value becomes the
 //! weighted mean of its neighbours' with `W(i, j) = f(s_i, s_j) w_z(i, j) w_omega(i, j)`, a
 //! screen-space Gaussian f times the depth weight (Eq. 3) times the directional weight, either
-//! lobe-aware (Eq. 12) or the normal-aware baseline (Eq. 4).
+//! lobe-aware (Eq. 12) or the normal-aware baseline (Eq. 4). The three factors are added as
+//! logarithms, one exponential per neighbour.
 //!
 //! The screen-space kernel's width is the centre pixel's own (`Guide::sigma_px`), so a caller
 //! can narrow it pass by pass (the stream's consistency) or take it from a frequency analysis
-//! (AAF's per-pixel widths). The gather is the full 2-D one the paper defines, not a separable
-//! approximation: the weights are not separable, and its weight sums drive the adaptive
-//! re-render of Fig. 16. Rows run in parallel; the result does not depend on the thread count.
+//! (AAF's per-pixel widths). Two gathers: the full 2-D one the paper defines, whose weight
+//! sums drive the adaptive re-render of Fig. 16, and a separable approximation (a horizontal
+//! then a vertical 1-D gather with the same weights, as the AAF filters do), the default for
+//! its cost: 2 (2r + 1) neighbours per pixel instead of (2r + 1)^2. Rows run in parallel; the
+//! result does not depend on the thread count.
 use super::sg::Sg;
-use super::weights::{depth_weight, lobe_weight, normal_weight};
+use super::weights::{ln_depth_weight, ln_lobe_weight, ln_normal_weight};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -38,6 +41,15 @@ pub enum Similarity {
     Normal { sigma_n2: f64 },
 }
 
+/// Which gather runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Gather {
+    /// Every neighbour in the (2r + 1)^2 square (Eq. 1 as written).
+    Full,
+    /// A horizontal, then a vertical 1-D gather.
+    Separable,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BilateralOptions {
     pub similarity: Similarity,
@@ -45,10 +57,12 @@ pub struct BilateralOptions {
     pub sigma_z2_relative: f64,
     /// The kernel radius is ceil(3 sigma_px), capped here (the paper times 8 and 16 px).
     pub max_radius: usize,
+    pub gather: Gather,
 }
 
 /// The filtered image and, per pixel, the sum of its weights (the denominator of Eq. 1; at
-/// least 1 for a filtered centre, whose own weight is 1).
+/// least 1 for a filtered centre, whose own weight is 1; for the separable gather, that of
+/// its vertical pass).
 pub struct Filtered {
     pub values: Vec<[f64; 3]>,
     pub weight_sums: Vec<f64>,
@@ -57,10 +71,10 @@ pub struct Filtered {
 }
 
 impl Similarity {
-    fn weight(&self, c: &Guide, j: &Guide) -> f64 {
+    fn ln_weight(&self, c: &Guide, j: &Guide) -> f64 {
         match *self {
-            Similarity::Lobe { beta } => lobe_weight(&c.lobe, &j.lobe, beta),
-            Similarity::Normal { sigma_n2 } => normal_weight(c.normal, j.normal, sigma_n2),
+            Similarity::Lobe { beta } => ln_lobe_weight(&c.lobe, &j.lobe, beta),
+            Similarity::Normal { sigma_n2 } => ln_normal_weight(c.normal, j.normal, sigma_n2),
         }
     }
 }
@@ -89,59 +103,64 @@ pub fn filter(guides: &[Guide], width: usize, values: &[[f64; 3]], o: &Bilateral
             }
         })
         .collect();
-    let rows: Vec<(Vec<[f64; 3]>, Vec<f64>)> = (0..height)
-        .into_par_iter()
-        .map(|y| {
-            let mut out = Vec::with_capacity(width);
-            let mut sums = Vec::with_capacity(width);
-            for x in 0..width {
-                let (v, s) = gather(guides, &clean, width, height, x, y, o);
-                out.push(v);
-                sums.push(s);
-            }
-            (out, sums)
-        })
-        .collect();
-    let (mut values, mut weight_sums) = (Vec::with_capacity(guides.len()), Vec::with_capacity(guides.len()));
-    for (v, s) in rows {
-        values.extend(v);
-        weight_sums.extend(s);
-    }
+    let image = Image { guides, width, height, o };
+    let (values, weight_sums) = match o.gather {
+        Gather::Full => image.pass(&clean, |x, y, r| image.square(x, y, r)),
+        Gather::Separable => {
+            let (across, _) = image.pass(&clean, |x, y, r| image.line(x, y, r, true));
+            image.pass(&across, |x, y, r| image.line(x, y, r, false))
+        }
+    };
     Filtered { values, weight_sums, non_finite }
 }
 
-fn gather(
-    guides: &[Guide],
-    values: &[[f64; 3]],
+struct Image<'a> {
+    guides: &'a [Guide],
     width: usize,
     height: usize,
-    x: usize,
-    y: usize,
-    o: &BilateralOptions,
-) -> ([f64; 3], f64) {
-    let i = y * width + x;
-    let c = &guides[i];
-    let r = radius(c, o);
-    if r == 0 {
-        return (values[i], if c.valid { 1.0 } else { 0.0 });
+    o: &'a BilateralOptions,
+}
+
+impl Image<'_> {
+    /// One gather over every pixel: `neighbours(x, y, r)` lists the (index, squared pixel
+    /// distance) pairs a centre gathers from.
+    fn pass<I: Iterator<Item = (usize, f64)>>(
+        &self,
+        values: &[[f64; 3]],
+        neighbours: impl Fn(usize, usize, usize) -> I + Sync,
+    ) -> (Vec<[f64; 3]>, Vec<f64>) {
+        let rows: Vec<Vec<([f64; 3], f64)>> = (0..self.height)
+            .into_par_iter()
+            .map(|y| (0..self.width).map(|x| self.gather(values, x, y, &neighbours)).collect())
+            .collect();
+        rows.into_iter().flatten().unzip()
     }
-    let inv_2s2 = 1.0 / (2.0 * c.sigma_px * c.sigma_px);
-    let sigma_z2 = o.sigma_z2_relative * c.depth * c.depth;
-    let (mut sum, mut wsum) = ([0.0f64; 3], 0.0f64);
-    for yy in y.saturating_sub(r)..=(y + r).min(height - 1) {
-        let dy = yy as f64 - y as f64;
-        for xx in x.saturating_sub(r)..=(x + r).min(width - 1) {
-            let j = yy * width + xx;
-            let g = &guides[j];
+
+    fn gather<I: Iterator<Item = (usize, f64)>>(
+        &self,
+        values: &[[f64; 3]],
+        x: usize,
+        y: usize,
+        neighbours: &impl Fn(usize, usize, usize) -> I,
+    ) -> ([f64; 3], f64) {
+        let i = y * self.width + x;
+        let c = &self.guides[i];
+        let r = radius(c, self.o);
+        if r == 0 {
+            return (values[i], if c.valid { 1.0 } else { 0.0 });
+        }
+        let inv_2s2 = 1.0 / (2.0 * c.sigma_px * c.sigma_px);
+        let sigma_z2 = self.o.sigma_z2_relative * c.depth * c.depth;
+        let (mut sum, mut wsum) = ([0.0f64; 3], 0.0f64);
+        for (j, d2) in neighbours(x, y, r) {
+            let g = &self.guides[j];
             if !g.valid {
                 continue;
             }
             let w = if j == i {
                 1.0
             } else {
-                let dx = xx as f64 - x as f64;
-                let f = (-(dx * dx + dy * dy) * inv_2s2).exp();
-                f * depth_weight(c.depth, g.depth, sigma_z2) * o.similarity.weight(c, g)
+                (-d2 * inv_2s2 + ln_depth_weight(c.depth, g.depth, sigma_z2) + self.o.similarity.ln_weight(c, g)).exp()
             };
             if w > 0.0 {
                 for k in 0..3 {
@@ -150,8 +169,27 @@ fn gather(
                 wsum += w;
             }
         }
+        (sum.map(|s| s / wsum), wsum)
     }
-    (sum.map(|s| s / wsum), wsum)
+
+    fn square(&self, x: usize, y: usize, r: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let (w, h) = (self.width, self.height);
+        (y.saturating_sub(r)..=(y + r).min(h - 1)).flat_map(move |yy| {
+            (x.saturating_sub(r)..=(x + r).min(w - 1)).map(move |xx| {
+                let (dx, dy) = (xx as f64 - x as f64, yy as f64 - y as f64);
+                (yy * w + xx, dx * dx + dy * dy)
+            })
+        })
+    }
+
+    fn line(&self, x: usize, y: usize, r: usize, across: bool) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let w = self.width;
+        let (at, len) = if across { (x, w) } else { (y, self.height) };
+        (at.saturating_sub(r)..=(at + r).min(len - 1)).map(move |k| {
+            let d = k as f64 - at as f64;
+            (if across { y * w + k } else { k * w + x }, d * d)
+        })
+    }
 }
 
 #[cfg(test)]
@@ -162,7 +200,11 @@ mod tests {
     use crate::render::material::GlossyModel;
 
     fn opts(similarity: Similarity) -> BilateralOptions {
-        BilateralOptions { similarity, sigma_z2_relative: 0.01, max_radius: 16 }
+        BilateralOptions { similarity, sigma_z2_relative: 0.01, max_radius: 16, gather: Gather::Full }
+    }
+
+    fn separable(similarity: Similarity) -> BilateralOptions {
+        BilateralOptions { gather: Gather::Separable, ..opts(similarity) }
     }
 
     fn flat(w: usize, h: usize, sigma_px: f64) -> Vec<Guide> {
@@ -176,17 +218,28 @@ mod tests {
         let c = vec![[0.25, 1.0, 3.0]; w * h];
         for s in [Similarity::Lobe { beta: 20.0 }, Similarity::Normal { sigma_n2: 0.01 }] {
             let out = filter(&guides, w, &c, &opts(s));
+            let sep = filter(&guides, w, &c, &separable(s));
+            assert!(sep.values.iter().all(|v| (v[0] - 0.25).abs() < 1e-12 && (v[2] - 3.0).abs() < 1e-12));
             assert!(out.values.iter().all(|v| (v[0] - 0.25).abs() < 1e-12 && (v[2] - 3.0).abs() < 1e-12));
             assert!(out.weight_sums.iter().all(|&s| s >= 1.0));
         }
-        // One bright pixel: the output is the normalised screen-space Gaussian around it.
+        // One bright pixel: the output is the normalised screen-space Gaussian around it, and
+        // the separable gather of a Gaussian is exact (on a frame wide enough that no window
+        // is cut).
+        let (w, h) = (31, 25);
+        let guides = flat(w, h, 2.0);
         let mut v = vec![[0.0; 3]; w * h];
-        v[6 * w + 10] = [1.0; 3];
-        let out = filter(&guides, w, &v, &opts(Similarity::Lobe { beta: 20.0 }));
+        v[12 * w + 15] = [1.0; 3];
         let g = |dx: f64, dy: f64| (-(dx * dx + dy * dy) / 8.0).exp();
         let norm: f64 = (-6..=6).flat_map(|dy| (-6..=6).map(move |dx| g(dx as f64, dy as f64))).sum();
-        let got = out.values[6 * w + 12][0];
-        assert!((got - g(2.0, 0.0) / norm).abs() < 1e-12, "{got}");
+        for o in [opts(Similarity::Lobe { beta: 20.0 }), separable(Similarity::Lobe { beta: 20.0 })] {
+            let out = filter(&guides, w, &v, &o);
+            for (x, y) in [(17, 12), (13, 14)] {
+                let got = out.values[y * w + x][0];
+                let want = g(x as f64 - 15.0, y as f64 - 12.0) / norm;
+                assert!((got - want).abs() < 1e-12, "{:?} ({x}, {y}): {got} vs {want}", o.gather);
+            }
+        }
     }
 
     /// Two glossy halves of one plane, Blinn-Phong exponents 10 and 10,000, with different
@@ -207,10 +260,12 @@ mod tests {
             }
         }
         let edge = 4 * w + w / 2 - 1;
-        let lobe = filter(&guides, w, &values, &opts(Similarity::Lobe { beta: 20.0 }));
-        let normal = filter(&guides, w, &values, &opts(Similarity::Normal { sigma_n2: 0.01 }));
-        assert!((lobe.values[edge][0] - 1.0).abs() < 0.01, "lobe-aware: {}", lobe.values[edge][0]);
-        assert!(normal.values[edge][0] > 1.5, "normal-aware: {}", normal.values[edge][0]);
+        for make in [opts, separable] {
+            let lobe = filter(&guides, w, &values, &make(Similarity::Lobe { beta: 20.0 }));
+            let normal = filter(&guides, w, &values, &make(Similarity::Normal { sigma_n2: 0.01 }));
+            assert!((lobe.values[edge][0] - 1.0).abs() < 0.01, "lobe-aware: {}", lobe.values[edge][0]);
+            assert!(normal.values[edge][0] > 1.5, "normal-aware: {}", normal.values[edge][0]);
+        }
     }
 
     #[test]
@@ -221,10 +276,12 @@ mod tests {
         guides[40].valid = false;
         values[40] = [100.0; 3];
         values[41] = [f64::NAN, 1.0, 1.0];
-        let out = filter(&guides, w, &values, &opts(Similarity::Lobe { beta: 20.0 }));
-        assert_eq!(out.values[40], [100.0; 3]);
-        assert_eq!(out.non_finite, 1);
-        assert!(out.values.iter().enumerate().all(|(i, v)| i == 40 || v.iter().all(|x| x.is_finite() && *x <= 1.0)));
+        for make in [opts, separable] {
+            let out = filter(&guides, w, &values, &make(Similarity::Lobe { beta: 20.0 }));
+            assert_eq!(out.values[40], [100.0; 3]);
+            assert_eq!(out.non_finite, 1);
+            assert!(out.values.iter().enumerate().all(|(i, v)| i == 40 || v.iter().all(|x| x.is_finite() && *x <= 1.0)));
+        }
         // Zero width keeps the value.
         let mut g = flat(w, h, 0.0);
         g[3].sigma_px = 0.0;

@@ -1,4 +1,5 @@
 //! Options of the lobe-aware filter (Tokuyoshi 2015) and of its normal-aware baseline.
+use super::filter::Gather;
 
 /// How a pixel's lobe is built (App. B) where the warp degenerates.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -44,6 +45,58 @@ impl WeightOptions {
             f64::INFINITY
         } else {
             100.0
+        }
+    }
+}
+
+/// Everything the `lobe-aware` and `normal-aware` methods take.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LobeAwareOptions {
+    pub lobe: LobeOptions,
+    pub weights: WeightOptions,
+    /// kappa (Eq. 9) from the render's bounces (`WeightOptions::kappa_for`) rather than
+    /// `weights.kappa`.
+    pub kappa_from_bounces: bool,
+    /// Standard deviation of the screen-space kernel f of the first passes, in pixels (the
+    /// paper's 8 px radius at 3 sigma).
+    pub sigma0_px: f64,
+    /// The kernel narrows as sigma0 (n / n0)^(-refine_exponent) with the samples per pixel n, so
+    /// that the stream converges to the unfiltered Monte Carlo mean; 1/6 balances a bias that
+    /// grows as sigma^2 against a variance falling as 1 / (n sigma^2).
+    pub refine_exponent: f64,
+    /// Kernel radius cap in pixels (the paper times 8 and 16).
+    pub max_radius: usize,
+    /// The full 2-D gather of Eq. 1 or its separable approximation (the default).
+    pub gather: Gather,
+}
+
+impl Default for LobeAwareOptions {
+    fn default() -> Self {
+        LobeAwareOptions {
+            lobe: LobeOptions::default(),
+            weights: WeightOptions::default(),
+            kappa_from_bounces: true,
+            sigma0_px: 8.0 / 3.0,
+            refine_exponent: 1.0 / 6.0,
+            max_radius: 16,
+            gather: Gather::Separable,
+        }
+    }
+}
+
+impl LobeAwareOptions {
+    /// The screen kernel's standard deviation at `spp` samples per pixel of which the first
+    /// `initial` are the first pass's.
+    pub fn sigma_px(&self, spp: f64, initial: f64) -> f64 {
+        self.sigma0_px * (spp / initial.max(1.0)).max(1.0).powf(-self.refine_exponent)
+    }
+
+    /// kappa for a render of `bounces` bounces.
+    pub fn kappa(&self, bounces: u32) -> f64 {
+        if self.kappa_from_bounces {
+            WeightOptions::kappa_for(bounces)
+        } else {
+            self.weights.kappa
         }
     }
 }

@@ -11,22 +11,27 @@ use glam::DVec3;
 /// 1e-20 to 1e20 neither overflows nor underflows (methods.md §3.3). `1 - xi_i.xi_j` is not
 /// clamped to [0, 1]: opposite axes are less alike than perpendicular ones.
 pub fn lobe_weight(a: &Sg, b: &Sg, beta: f64) -> f64 {
+    ln_lobe_weight(a, b, beta).exp().clamp(0.0, 1.0)
+}
+
+/// ln of `lobe_weight` (at most 0; minus infinity for a weight of 0), so that a gather can add
+/// it to the other weights' logarithms and take one exponential per neighbour.
+pub fn ln_lobe_weight(a: &Sg, b: &Sg, beta: f64) -> f64 {
     let (lo, hi) = if a.sharpness <= b.sharpness { (a.sharpness, b.sharpness) } else { (b.sharpness, a.sharpness) };
     if hi == 0.0 {
         // Two uniform lobes are the same distribution.
-        return 1.0;
+        return 0.0;
     }
     let rho = lo / hi;
     if rho == 0.0 {
         // A uniform lobe against a sharp one: the first factor is 0.
-        return 0.0;
+        return f64::NEG_INFINITY;
     }
     let sharpness_term = 4f64.ln() + rho.ln() - 2.0 * rho.ln_1p();
     // u / v = lo hi / (lo + hi) = lo / (1 + rho).
     let u_over_v = lo / (1.0 + rho);
     let c = a.axis.dot(b.axis).clamp(-1.0, 1.0);
-    let ln_w = 0.5 * beta * sharpness_term.min(0.0) + beta * u_over_v * (c - 1.0);
-    ln_w.exp().clamp(0.0, 1.0)
+    (0.5 * beta * sharpness_term.min(0.0) + beta * u_over_v * (c - 1.0)).min(0.0)
 }
 
 /// Eq. 11, the lobe-aware weight of two SG mixtures (smoothed lobes with their amplitudes):
@@ -64,17 +69,27 @@ fn ln_alpha(a: &[Weighted], b: &[Weighted]) -> f64 {
 
 /// Eq. 4, the normal-aware baseline: `g(n_i - n_j, sigma_n^2) = exp((n_i.n_j - 1) / sigma_n^2)`.
 pub fn normal_weight(ni: DVec3, nj: DVec3, sigma_n2: f64) -> f64 {
+    ln_normal_weight(ni, nj, sigma_n2).exp()
+}
+
+/// ln of `normal_weight`.
+pub fn ln_normal_weight(ni: DVec3, nj: DVec3, sigma_n2: f64) -> f64 {
     let c = ni.dot(nj).clamp(-1.0, 1.0);
-    ((c - 1.0) / sigma_n2.max(f64::MIN_POSITIVE)).exp()
+    (c - 1.0) / sigma_n2.max(f64::MIN_POSITIVE)
 }
 
 /// Eq. 3, the depth weight `g(z_i - z_j, sigma_z^2)`.
 pub fn depth_weight(zi: f64, zj: f64, sigma_z2: f64) -> f64 {
+    ln_depth_weight(zi, zj, sigma_z2).exp()
+}
+
+/// ln of `depth_weight`.
+pub fn ln_depth_weight(zi: f64, zj: f64, sigma_z2: f64) -> f64 {
     let d = zi - zj;
     if d == 0.0 {
-        return 1.0;
+        return 0.0;
     }
-    (-(d * d) / (2.0 * sigma_z2.max(f64::MIN_POSITIVE))).exp()
+    -(d * d) / (2.0 * sigma_z2.max(f64::MIN_POSITIVE))
 }
 
 /// The diffuse-lobe similarity of App. D at kappa = inf, exact:
