@@ -280,7 +280,11 @@ mod tests {
             let out = filter(&guides, w, &values, &make(Similarity::Lobe { beta: 20.0 }));
             assert_eq!(out.values[40], [100.0; 3]);
             assert_eq!(out.non_finite, 1);
-            assert!(out.values.iter().enumerate().all(|(i, v)| i == 40 || v.iter().all(|x| x.is_finite() && *x <= 1.0)));
+            assert!(out
+                .values
+                .iter()
+                .enumerate()
+                .all(|(i, v)| i == 40 || v.iter().all(|x| x.is_finite() && *x <= 1.0)));
         }
         // Zero width keeps the value.
         let mut g = flat(w, h, 0.0);

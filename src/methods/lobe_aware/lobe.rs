@@ -21,17 +21,18 @@ pub fn diffuse(normal: DVec3) -> Sg {
 /// sharpness `m / (4 n.psi)`. Phong's lobe `cos^m` of the angle to the mirror direction is
 /// already the SG `G(w, reflect, m)`, so it needs no warp.
 ///
-/// At grazing views `n.psi -> 0` the warped sharpness diverges: `n.psi` is clamped below at
-/// `opts.min_cos_view` and the sharpness capped at `opts.max_sharpness` (methods.md §3.5; a
-/// huge sharpness only makes the weight reject every neighbour, the centre keeps weight 1).
-/// A back-facing shading normal (`n.psi < 0`) uses `|n.psi|`, as VSGL does.
+/// At grazing views `n.psi -> 0` the warped sharpness diverges: the divisor's `n.psi` is
+/// clamped below at `opts.min_cos_view` (the axis stays the true mirror direction) and the
+/// sharpness capped at `opts.max_sharpness` (methods.md §3.5; a huge sharpness only makes the
+/// weight reject every neighbour, the centre keeps weight 1). A back-facing shading normal
+/// (`n.psi < 0`) divides by `|n.psi|`, as VSGL does.
 pub fn specular(model: GlossyModel, exponent: f64, n: DVec3, psi: DVec3, opts: &LobeOptions) -> Sg {
-    let cos = n.dot(psi).abs().max(opts.min_cos_view);
+    let cos = n.dot(psi);
     let axis = 2.0 * cos * n - psi;
     let axis = if axis.length_squared() > 0.0 { axis } else { n };
     let m = exponent.max(0.0);
     let sharpness = match model {
-        GlossyModel::BlinnPhong => m / (4.0 * cos),
+        GlossyModel::BlinnPhong => m / (4.0 * cos.abs().max(opts.min_cos_view)),
         GlossyModel::Phong => m,
     };
     Sg::new(axis, sharpness.min(opts.max_sharpness))

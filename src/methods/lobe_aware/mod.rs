@@ -10,6 +10,6 @@ pub mod sg;
 pub mod weights;
 
 #[cfg(test)]
-mod tests;
-#[cfg(test)]
 mod render_tests;
+#[cfg(test)]
+mod tests;

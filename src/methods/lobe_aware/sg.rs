@@ -58,8 +58,8 @@ impl Sg {
     }
 }
 
-/// ln((1 - e^{-2r}) / r): the series `ln 2 - r + r^2/6` near 0 (methods.md §3.3 prints r^2/3,
-/// which a direct f64 evaluation at r = 0.01 refutes), `ln(-expm1(-2r)) - ln r` above.
+/// ln((1 - e^{-2r}) / r): the series `ln 2 - r + r^2/6` near 0 (the shared implementation
+/// notes print r^2/3, which a direct f64 evaluation refutes), `ln(-expm1(-2r)) - ln r` above.
 fn ln_one_minus_exp_neg_2r_over_r(r: f64) -> f64 {
     if r < SERIES_BELOW {
         2f64.ln() - r + r * r / 6.0

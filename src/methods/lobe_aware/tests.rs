@@ -77,8 +77,8 @@ fn exact_product_integral_matches_quadrature_and_iwasaki_is_a_few_percent_off() 
 
 #[test]
 fn the_product_integral_has_no_cancellation_at_high_sharpness() {
-    // lambda = 1e4 at 0.06 degrees, where the naive f32 form was 18% off (methods.md §3.3): the
-    // log-space value agrees with a direct f64 evaluation.
+    // lambda = 1e4 at 0.06 degrees, where the naive f32 form loses most of its digits to
+    // cancellation (methods.md §3.3): the log-space value agrees with a direct f64 evaluation.
     let l = 1e4;
     let theta = 0.06f64.to_radians();
     let (a, b) = (Sg::new(DVec3::Z, l), Sg::new(at_angle(0.06), l));
@@ -236,7 +236,8 @@ fn weights_stay_finite_and_bounded_at_the_extremes() {
             }
         }
     }
-    // Grazing and back-facing views give a finite, capped lobe with a unit axis.
+    // Grazing and back-facing views give a finite, capped lobe with a unit axis, the mirror
+    // direction of the view.
     let n = DVec3::Z;
     for psi in [at_angle(89.99999), at_angle(90.0), at_angle(120.0), -DVec3::Z] {
         for model in [GlossyModel::BlinnPhong, GlossyModel::Phong] {
@@ -244,6 +245,10 @@ fn weights_stay_finite_and_bounded_at_the_extremes() {
                 let s = specular(model, m, n, psi, &o);
                 assert!(s.sharpness.is_finite() && s.sharpness <= o.max_sharpness);
                 assert!((s.axis.length() - 1.0).abs() < 1e-9, "{psi} {m}: {}", s.axis);
+                let mirror = (2.0 * n.dot(psi) * n - psi).normalize_or_zero();
+                if mirror != DVec3::ZERO {
+                    assert!((s.axis - mirror).length() < 1e-9, "{psi}: axis {} vs mirror {mirror}", s.axis);
+                }
             }
         }
     }
