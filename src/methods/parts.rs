@@ -17,7 +17,7 @@ use crate::render::light::Light;
 /// indirect strategy also owns direct light, by plain sampling.
 pub fn parts(job: &RenderJob, mode: FilterMode) -> (bool, bool) {
     let ao = matches!(job.integrand, Integrand::AmbientOcclusion { .. });
-    let shadows = !ao && !mode.tokuyoshi() && job.scene.lights.iter().any(|l| matches!(l, Light::Rect(_)));
+    let shadows = !ao && !mode.indirect_owns_direct() && job.scene.lights.iter().any(|l| matches!(l, Light::Rect(_)));
     (shadows, ao || job.bounces > 0)
 }
 
@@ -25,10 +25,13 @@ pub fn parts(job: &RenderJob, mode: FilterMode) -> (bool, bool) {
 pub fn build(job: &RenderJob, mode: FilterMode) -> Box<dyn Strategy> {
     match parts(job, mode) {
         (false, false) => Box::new(Uniform::new(job)),
-        (true, false) => Box::new(ShadowStrategy::new(job, mode)),
+        (true, false) => Box::new(ShadowStrategy::new(job, mode.for_shadows())),
         (false, true) => Box::new(IndirectStrategy::new(job, mode, true)),
         (true, true) => Box::new(SumOfParts {
-            parts: vec![Box::new(ShadowStrategy::new(job, mode)), Box::new(IndirectStrategy::new(job, mode, false))],
+            parts: vec![
+                Box::new(ShadowStrategy::new(job, mode.for_shadows())),
+                Box::new(IndirectStrategy::new(job, mode, false)),
+            ],
         }),
     }
 }

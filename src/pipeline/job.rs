@@ -57,6 +57,7 @@ pub enum Method {
     UniformFiltered,
     LobeAware,
     NormalAware,
+    Auto,
 }
 
 /// One render: the compiled scene, the view it is seen from, the method and its options.

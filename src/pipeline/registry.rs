@@ -87,6 +87,16 @@ pub const METHODS: &[MethodSpec] = &[
         components: |job| parts::component_names(job, FilterMode::NormalAware),
         build: |job| parts::build(job, FilterMode::NormalAware),
     },
+    MethodSpec {
+        method: Method::Auto,
+        name: "auto",
+        proto: proto::Method::Auto,
+        summary: "AAF's sample counts and widths with lobe-aware weights for indirect light (AAF + Tokuyoshi)",
+        filters: true,
+        needs_gbuffer: true,
+        components: |job| parts::component_names(job, FilterMode::Auto),
+        build: |job| parts::build(job, FilterMode::Auto),
+    },
 ];
 
 /// The method the product recommends: the one the README's first command and a request that
@@ -94,13 +104,14 @@ pub const METHODS: &[MethodSpec] = &[
 pub const DEFAULT_METHOD: Method = Method::Aaf;
 
 impl Method {
-    pub const ALL: [Method; 6] = [
+    pub const ALL: [Method; 7] = [
         Method::Uniform,
         Method::Aaf,
         Method::Adaptive,
         Method::UniformFiltered,
         Method::LobeAware,
         Method::NormalAware,
+        Method::Auto,
     ];
 
     /// This method's row.
@@ -157,7 +168,7 @@ mod tests {
         }
         assert_eq!(Method::from_proto(proto::Method::Unspecified), None);
         // Every wire value but UNSPECIFIED has a row.
-        for v in 1..=6 {
+        for v in 1..=7 {
             let m = proto::Method::try_from(v).unwrap();
             assert!(Method::from_proto(m).is_some(), "{m:?} has no row");
         }

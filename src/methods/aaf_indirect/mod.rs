@@ -249,7 +249,9 @@ impl IndirectStrategy {
                     }
                 };
                 Guide {
-                    valid: s.is_valid() && !s.emitter,
+                    // As for AAF's filter: any hit; the frame also asks for samples that reached a
+                    // reflecting surface (an area light's pixel at its edge has some).
+                    valid: s.is_valid(),
                     depth: s.depth as f64,
                     normal: n,
                     lobe: lobe.smoothed(kappa),
@@ -259,20 +261,27 @@ impl IndirectStrategy {
             .collect()
     }
 
-    /// Filters the untextured light of `part` with Tokuyoshi's gather (Eq. 1): the screen
-    /// kernel narrows with the component's samples per pixel (`LobeAwareOptions::sigma_px`),
-    /// and pixels whose samples found no reflecting surface stay out.
-    fn filter_tokuyoshi(&self, part: Part, light: &mut Vec<[f64; 3]>, part_width: &mut [f32], width_px: &mut [f32]) {
+    /// Filters the untextured light of `part` with Tokuyoshi's gather (Eq. 1), pixel p's screen
+    /// kernel `sigma(p)` pixels wide (narrowing with the samples for the lobe- and
+    /// normal-aware methods, AAF's width for `auto`); pixels whose samples found no reflecting
+    /// surface stay out.
+    fn filter_tokuyoshi(
+        &self,
+        part: Part,
+        sigma: impl Fn(usize) -> f64 + Sync,
+        light: &mut Vec<[f64; 3]>,
+        part_width: &mut [f32],
+        width_px: &mut [f32],
+    ) {
         let o = &self.lobe_opts;
         let index = self.parts().iter().position(|&p| p == part).expect("guides for every part");
-        let initial = self.opts.initial_samples.max(1) as f64;
         let guides: Vec<Guide> = self.guides[index]
             .par_iter()
             .zip(&self.sums)
-            .map(|(g, s)| {
-                let c = part.of(s);
-                let valid = g.valid && c.surface > 0;
-                Guide { valid, sigma_px: if valid { o.sigma_px(c.n as f64, initial) } else { 0.0 }, ..*g }
+            .enumerate()
+            .map(|(p, (g, s))| {
+                let valid = g.valid && part.of(s).surface > 0;
+                Guide { valid, sigma_px: if valid { sigma(p) } else { 0.0 }, ..*g }
             })
             .collect();
         let similarity = match self.mode {
@@ -414,37 +423,49 @@ impl IndirectStrategy {
             let light_mean = |p: usize| mean(at(p).light, at(p).surface);
             let mut light: Vec<[f64; 3]> = (0..n).into_par_iter().map(light_mean).collect();
             let mut part_width = vec![0.0f32; n];
+            // AAF's per-pixel widths, for the modes that use them.
+            let kernels: Option<Vec<FilterKernel>> =
+                matches!(self.mode, FilterMode::Aaf | FilterMode::UniformFiltered | FilterMode::Auto).then(|| {
+                    let mu = self.mu(pass);
+                    (0..n)
+                        .into_par_iter()
+                        .map(|p| {
+                            let valid = g.is_some_and(|g| g.pixels[p].is_valid()) && at(p).surface > 0;
+                            let beta = if !valid {
+                                0.0
+                            } else if self.mode == FilterMode::UniformFiltered || pass == 0 {
+                                // The preview's reflector distances come from the one sample it
+                                // filters: widths that follow each pixel's own sample would weight
+                                // the samples by their values (a short ray, a narrow kernel), which
+                                // biases the mean. Its fixed width depends on geometry alone.
+                                self.opts.fixed_filter_px * self.d[p]
+                            } else {
+                                self.reflectors(scene, p, part).map_or(0.0, |r| {
+                                    filter_width(&r, &self.opts.constants, mu) * self.opts.kernel_scale
+                                })
+                            };
+                            FilterKernel { valid, beta, d: self.d[p] }
+                        })
+                        .collect()
+                });
             if self.mode.tokuyoshi() {
-                self.filter_tokuyoshi(part, &mut light, &mut part_width, &mut width_px);
-            }
-            if let Some(surface) = &self.surface {
-                let mu = self.mu(pass);
-                let kernels: Vec<FilterKernel> = (0..n)
-                    .into_par_iter()
-                    .map(|p| {
-                        let valid = g.is_some_and(|g| g.pixels[p].is_valid()) && at(p).surface > 0;
-                        let beta = if !valid {
-                            0.0
-                        } else if self.mode == FilterMode::UniformFiltered || pass == 0 {
-                            // The preview's reflector distances come from the one sample it
-                            // filters: widths that follow each pixel's own sample would weight
-                            // the samples by their values (a short ray, a narrow kernel), which
-                            // biases the mean. Its fixed width depends on geometry alone.
-                            self.opts.fixed_filter_px * self.d[p]
-                        } else {
-                            self.reflectors(scene, p, part)
-                                .map_or(0.0, |r| filter_width(&r, &self.opts.constants, mu) * self.opts.kernel_scale)
-                        };
-                        FilterKernel { valid, beta, d: self.d[p] }
-                    })
-                    .collect();
-                part_width.par_iter_mut().zip(width_px.par_iter_mut()).zip(&kernels).for_each(|((pw, wp), k)| {
+                let initial = self.opts.initial_samples.max(1) as f64;
+                let o = &self.lobe_opts;
+                let sigma = |p: usize| match &kernels {
+                    // `auto`: AAF's width in pixels.
+                    Some(k) if k[p].d > 0.0 => k[p].beta / k[p].d,
+                    Some(_) => 0.0,
+                    None => o.sigma_px(at(p).n as f64, initial),
+                };
+                self.filter_tokuyoshi(part, sigma, &mut light, &mut part_width, &mut width_px);
+            } else if let (Some(surface), Some(kernels)) = (&self.surface, &kernels) {
+                part_width.par_iter_mut().zip(width_px.par_iter_mut()).zip(kernels).for_each(|((pw, wp), k)| {
                     if k.beta > 0.0 && k.d > 0.0 {
                         *pw = (k.beta / k.d) as f32;
                         *wp = wp.max(*pw);
                     }
                 });
-                surface.filter(&kernels, &mut light);
+                surface.filter(kernels, &mut light);
             }
             color.par_iter_mut().zip(unfiltered.par_iter_mut()).enumerate().for_each(|(p, (color, unfiltered))| {
                 let s = at(p);

@@ -296,7 +296,7 @@ impl ShadowStrategy {
                         let n = sparse.saturating_mul(1u32 << (pass - 1).min(20));
                         Target { n, r: n }
                     }
-                    FilterMode::Aaf | FilterMode::Adaptive => {
+                    FilterMode::Aaf | FilterMode::Adaptive | FilterMode::Auto => {
                         let light = &self.lights[l];
                         let mu = self.mu(pass) * light.mu_scale;
                         let cap = (self.opts.cap * mu * mu).max(sparse as f64);
