@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the built-in scenes (cornell, grids, curved, cornell-glossy, interior) as canonical protobuf JSON
+"""Writes the built-in scenes (cornell, grids, curved, cornell-glossy, interior, glossy-plates) as canonical protobuf JSON
 of wedge.v1.Scene. Run from anywhere: `python3 scenes/generate.py`. The JSON files are
 committed and compiled into the binary; this script is how they were made."""
 import json
@@ -247,6 +247,54 @@ def curved():
     }
 
 
+def glossy_plates():
+    # Veach's multiple-importance-sampling plates (Veach 1997, Fig. 9.2) rebuilt for wedge: four
+    # glossy plates side by side in depth, Blinn-Phong exponents 10, 100, 1,000 and 10,000, each
+    # tilted so that it mirrors the area light towards the camera, in front of a two-coloured
+    # back wall on a grey floor (1 bounce: the plates also reflect the lit walls). Tokuyoshi
+    # 2015's lobe-aware weights should keep the plates' edges of glossiness where normal-aware
+    # weights (one normal per plate) cannot tell the plates' lobes apart.
+    cam, light_c = (0.0, 90.0, -160.0), (0.0, 140.0, 150.0)
+
+    def unit(a):
+        n = math.sqrt(sum(c * c for c in a))
+        return tuple(c / n for c in a)
+
+    def sub(a, b):
+        return tuple(x - y for x, y in zip(a, b))
+
+    def cross(a, b):
+        return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+    plates, materials = [], [lambert("floor", (0.4, 0.4, 0.4)), lambert("warm", (0.7, 0.35, 0.1)),
+                              lambert("cool", (0.1, 0.3, 0.7))]
+    for k, m in enumerate([10, 100, 1000, 10000]):
+        c = (0.0, 12.0 + 9.0 * k, 20.0 + 30.0 * k)
+        h = unit(tuple(a + b for a, b in zip(unit(sub(light_c, c)), unit(sub(cam, c)))))
+        t = unit(cross(h, (1.0, 0.0, 0.0)))
+        half_u, half_v = (55.0, 0.0, 0.0), tuple(6.0 * x for x in t)
+        corner = tuple(c[i] - half_u[i] - half_v[i] for i in range(3))
+        materials.append(glossy(f"plate_{m}", (0.03, 0.03, 0.03), (0.6, 0.6, 0.6), m))
+        plates.append({"name": f"plate_{m}", "material": f"plate_{m}",
+                       "quad": {"corner": v(*corner), "edgeU": v(*(2 * x for x in half_u)),
+                                "edgeV": v(*(2 * x for x in half_v))}})
+    return {
+        "description": "Veach-style glossy plates (Blinn-Phong m = 10 to 10,000) under an area light, 1 bounce",
+        "camera": {"position": v(*cam), "lookAt": v(0, 30, 80), "up": v(0, 1, 0),
+                   "verticalFovDeg": 40, "width": 320, "height": 240},
+        "materials": materials,
+        "shapes": [{"name": "floor", "material": "floor",
+                    "quad": {"corner": v(-150, 0, -60), "edgeU": v(0, 0, 280), "edgeV": v(300, 0, 0)}},
+                   {"name": "back_left", "material": "warm",
+                    "quad": {"corner": v(-150, 0, 220), "edgeU": v(0, 200, 0), "edgeV": v(150, 0, 0)}},
+                   {"name": "back_right", "material": "cool",
+                    "quad": {"corner": v(0, 0, 220), "edgeU": v(0, 200, 0), "edgeV": v(150, 0, 0)}}] + plates,
+        "lights": [{"rect": {"corner": v(15, 140, 135), "edgeU": v(0, 0, 30), "edgeV": v(-30, 0, 0),
+                             "radiance": rgb(60, 55, 50)}}],
+        "settings": {"bounces": 1},
+    }
+
+
 def three_sigma(make):
     # The same scene under the Gaussian light that AAF's analysis assumes (Mehta et al. 2012,
     # Sec. 4: Omega_L = 1/sigma): same centre and same sigma, on a rectangle three times as wide
@@ -274,7 +322,8 @@ def three_sigma(make):
 if __name__ == "__main__":
     for name, make in [("cornell", cornell), ("grids", grids), ("curved", curved),
                        ("cornell-glossy", cornell_glossy), ("interior", interior),
-                       ("grids-3sigma", three_sigma(grids)), ("curved-3sigma", three_sigma(curved))]:
+                       ("grids-3sigma", three_sigma(grids)), ("curved-3sigma", three_sigma(curved)),
+                       ("glossy-plates", glossy_plates)]:
         with open(os.path.join(HERE, name + ".json"), "w") as f:
             compact = name in ("curved", "cornell-glossy", "interior", "curved-3sigma")
             json.dump(make(), f, separators=(",", ":") if compact else (",", ": "), indent=None if compact else 1)

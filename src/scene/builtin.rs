@@ -12,6 +12,7 @@ const SOURCES: &[(&str, &str)] = &[
     ("interior", include_str!("../../scenes/interior.json")),
     ("grids-3sigma", include_str!("../../scenes/grids-3sigma.json")),
     ("curved-3sigma", include_str!("../../scenes/curved-3sigma.json")),
+    ("glossy-plates", include_str!("../../scenes/glossy-plates.json")),
 ];
 
 pub struct BuiltinScene {
@@ -55,7 +56,16 @@ mod tests {
         }
         assert_eq!(
             names().collect::<Vec<_>>(),
-            ["cornell", "grids", "curved", "cornell-glossy", "interior", "grids-3sigma", "curved-3sigma"]
+            [
+                "cornell",
+                "grids",
+                "curved",
+                "cornell-glossy",
+                "interior",
+                "grids-3sigma",
+                "curved-3sigma",
+                "glossy-plates"
+            ]
         );
         assert!(get("nope").is_none());
     }
