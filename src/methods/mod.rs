@@ -6,5 +6,5 @@ pub mod lobe_aware;
 pub mod mode;
 pub mod parts;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 pub mod uniform;

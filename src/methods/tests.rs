@@ -2,6 +2,8 @@
 use crate::pipeline::frame::Frame;
 use crate::pipeline::job::{CancelToken, Method, RenderJob};
 use crate::pipeline::progressive::render;
+use crate::render::scene::Scene;
+use std::sync::Arc;
 
 /// The frames of `j`, without the AAF family's preview (pass 0): frame k is pass k + 1, the
 /// k-th frame of the analysis proper. `uniform` has no preview and keeps every frame.
@@ -15,4 +17,18 @@ pub fn frames(j: &RenderJob) -> Vec<Frame> {
     })
     .expect("render");
     out
+}
+
+/// A built-in scene compiled at `w` x `h`.
+pub fn builtin(name: &str, w: u32, h: u32) -> Arc<Scene> {
+    let mut s = crate::scene::builtin::get(name).unwrap();
+    let cam = s.camera.as_mut().unwrap();
+    (cam.width, cam.height) = (w, h);
+    Arc::new(crate::scene::compile(&s, &crate::scene::SceneLimits::default(), None).unwrap())
+}
+
+/// RMSE over the three channels of every pixel.
+pub fn rmse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
+    let se: f64 = a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2))).sum();
+    (se / (3 * a.len()) as f64).sqrt()
 }

@@ -10,13 +10,6 @@ fn scene(json: &str) -> Arc<Scene> {
     Arc::new(compile(&s, &SceneLimits::default(), None).expect("test scene compiles"))
 }
 
-fn builtin(name: &str, w: u32, h: u32) -> Arc<Scene> {
-    let mut s = crate::scene::builtin::get(name).unwrap();
-    let cam = s.camera.as_mut().unwrap();
-    (cam.width, cam.height) = (w, h);
-    Arc::new(compile(&s, &SceneLimits::default(), None).unwrap())
-}
-
 /// `passes` passes after the preview (pass 0) for the AAF family, whose `frames` drop it: frame
 /// k of these tests is pass k + 1 of the render, the k-th frame of the analysis proper.
 fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64, bounces: u32) -> RenderJob {
@@ -41,17 +34,12 @@ fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64, bounces: u32) 
     }
 }
 
-use super::super::tests::frames;
+use super::super::tests::{builtin, frames, rmse};
 
 fn reference(scene: Arc<Scene>, bounces: u32, spp: f64) -> Frame {
     let mut j = job(scene, Method::Uniform, 20, 99, bounces);
     j.halt.max_mean_spp = spp;
     frames(&j).pop().unwrap()
-}
-
-fn rmse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
-    let se: f64 = a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2))).sum();
-    (se / (3 * a.len()) as f64).sqrt()
 }
 
 fn mean_of(img: &[[f32; 3]], c: usize) -> f64 {

@@ -72,12 +72,7 @@ fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64) -> RenderJob {
     }
 }
 
-use super::super::tests::frames;
-
-fn rmse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
-    let se: f64 = a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2))).sum();
-    (se / (3 * a.len()) as f64).sqrt()
-}
+use super::super::tests::{frames, rmse};
 
 #[test]
 fn rmse_against_the_ground_truth_falls_as_mu_grows() {

@@ -1,19 +1,11 @@
 //! The `lobe-aware` and `normal-aware` methods through the pipeline, on small built-in scenes
 //! with fixed seeds: energy, consistency (the stream converges to plain Monte Carlo) and the
 //! narrowing kernel.
-use crate::methods::tests::frames;
+use crate::methods::tests::{builtin, frames, rmse};
 use crate::pipeline::frame::Frame;
 use crate::pipeline::job::{Halt, Method, RenderJob};
 use crate::render::scene::Scene;
-use crate::scene::{compile, SceneLimits};
 use std::sync::Arc;
-
-fn builtin(name: &str, w: u32, h: u32) -> Arc<Scene> {
-    let mut s = crate::scene::builtin::get(name).unwrap();
-    let cam = s.camera.as_mut().unwrap();
-    (cam.width, cam.height) = (w, h);
-    Arc::new(compile(&s, &SceneLimits::default(), None).unwrap())
-}
 
 /// `passes` passes after the preview, which `frames` drops.
 fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64, bounces: u32) -> RenderJob {
@@ -26,11 +18,6 @@ fn reference(scene: Arc<Scene>, bounces: u32, spp: f64) -> Frame {
     let mut j = job(scene, Method::Uniform, 20, 99, bounces);
     j.halt.max_mean_spp = spp;
     frames(&j).pop().unwrap()
-}
-
-fn rmse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
-    let se: f64 = a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2))).sum();
-    (se / (3 * a.len()) as f64).sqrt()
 }
 
 fn mean(img: &[[f32; 3]]) -> f64 {

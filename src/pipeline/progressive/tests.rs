@@ -203,13 +203,7 @@ fn non_finite_samples_are_counted_and_dropped() {
     assert!(last.spp.iter().any(|&s| s < 4.0));
 }
 
-/// A built-in scene compiled at `w` x `h`.
-fn builtin(name: &str, w: u32, h: u32) -> Arc<Scene> {
-    let mut s = crate::scene::builtin::get(name).unwrap();
-    let cam = s.camera.as_mut().unwrap();
-    (cam.width, cam.height) = (w, h);
-    Arc::new(crate::scene::compile(&s, &crate::scene::SceneLimits::default(), None).unwrap())
-}
+use crate::methods::tests::builtin;
 
 fn image_mean(f: &Frame) -> f64 {
     f.color.iter().flatten().map(|&v| v as f64).sum::<f64>() / (3 * f.color.len()) as f64

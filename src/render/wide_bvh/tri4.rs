@@ -124,15 +124,20 @@ mod tests {
     use obvhs::{ray::Ray, rt_triangle::RtTriangle};
     use std::f32::consts::TAU;
 
-    #[test]
-    fn lanes_agree_with_obvhs_triangle_test() {
-        let mut s = 0x2545_f491_4f6c_dd1du64;
-        let mut f = || {
+    /// Xorshift values in [-1, 1).
+    fn uniform_in(seed: u64) -> impl FnMut() -> f32 {
+        let mut s = seed;
+        move || {
             s ^= s << 13;
             s ^= s >> 7;
             s ^= s << 17;
             (s >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
-        };
+        }
+    }
+
+    #[test]
+    fn lanes_agree_with_obvhs_triangle_test() {
+        let mut f = uniform_in(0x2545_f491_4f6c_dd1d);
         let mut hits = 0;
         for _ in 0..2000 {
             let tris: Vec<([Vec3; 3], u32)> = (0..3)
@@ -191,13 +196,7 @@ mod tests {
                 targets.push(centre.lerp(rim(k), s));
             }
         }
-        let mut s = 0x9e37_79b9_7f4a_7c15u64;
-        let mut f = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
-        };
+        let mut f = uniform_in(0x9e37_79b9_7f4a_7c15);
         let mut rays = 0;
         for target in &targets {
             for _ in 0..400 {
