@@ -27,13 +27,17 @@
 //!   converge too. Pixels with reflectors also never fall below that floor.
 //! - The filter standard deviation can be scaled (`kernel_scale`): the authors' code used an
 //!   effective beta / 4; the default is the paper's beta.
+//!
+//! The same sampling, demodulation and composition serve Tokuyoshi's methods (`lobe-aware`,
+//! `normal-aware`: equal samples, his gather) and `auto` (these counts and widths, his gather),
+//! as `FilterMode`s; `tokuyoshi.rs` holds their part (methods.md §3.4).
 pub mod options;
 pub mod params;
+mod tokuyoshi;
 
 pub use options::IndirectOptions;
 
-use super::lobe_aware::filter::{self, BilateralOptions, Guide, Similarity};
-use super::lobe_aware::lobe;
+use super::lobe_aware::filter::Guide;
 use super::lobe_aware::options::LobeAwareOptions;
 use super::mode::FilterMode;
 use crate::pipeline::film::{mean, Tally};
@@ -228,77 +232,6 @@ impl IndirectStrategy {
         });
         self.method_seconds += t.elapsed().as_secs_f64();
         self.gbuffer = Some(g);
-    }
-
-    /// Tokuyoshi's guides of `part` from the G-buffer: the diffuse lobe about the normal, or
-    /// the glossy pixel's specular lobe (App. B), smoothed with kappa (Eq. 10).
-    fn guides_of(&self, ctx: &PassContext, g: &GBuffer, part: Part) -> Vec<Guide> {
-        let o = &self.lobe_opts;
-        let kappa = o.kappa(self.bounces);
-        let camera = ctx.view.position.as_dvec3();
-        g.pixels
-            .par_iter()
-            .map(|s| {
-                let n = s.normal.as_dvec3();
-                let position = s.position.as_dvec3();
-                let psi = (camera - position).normalize_or_zero();
-                let lobe = match part {
-                    Part::Diffuse => lobe::diffuse(n),
-                    Part::Glossy => {
-                        lobe::specular(glossy_model(ctx.scene, s.material), s.exponent as f64, n, psi, &o.lobe)
-                    }
-                };
-                Guide {
-                    // As for AAF's filter: any hit; the frame also asks for samples that reached a
-                    // reflecting surface (an area light's pixel at its edge has some).
-                    valid: s.is_valid(),
-                    depth: s.depth as f64,
-                    normal: n,
-                    lobe: lobe.smoothed(kappa),
-                    sigma_px: 0.0,
-                }
-            })
-            .collect()
-    }
-
-    /// Filters the untextured light of `part` with Tokuyoshi's gather (Eq. 1), pixel p's screen
-    /// kernel `sigma(p)` pixels wide (narrowing with the samples for the lobe- and
-    /// normal-aware methods, AAF's width for `auto`); pixels whose samples found no reflecting
-    /// surface stay out.
-    fn filter_tokuyoshi(
-        &self,
-        part: Part,
-        sigma: impl Fn(usize) -> f64 + Sync,
-        light: &mut Vec<[f64; 3]>,
-        part_width: &mut [f32],
-        width_px: &mut [f32],
-    ) {
-        let o = &self.lobe_opts;
-        let index = self.parts().iter().position(|&p| p == part).expect("guides for every part");
-        let guides: Vec<Guide> = self.guides[index]
-            .par_iter()
-            .zip(&self.sums)
-            .enumerate()
-            .map(|(p, (g, s))| {
-                let valid = g.valid && part.of(s).surface > 0;
-                Guide { valid, sigma_px: if valid { sigma(p) } else { 0.0 }, ..*g }
-            })
-            .collect();
-        let similarity = match self.mode {
-            FilterMode::NormalAware => Similarity::Normal { sigma_n2: o.weights.sigma_n2 },
-            _ => Similarity::Lobe { beta: o.weights.beta },
-        };
-        let opts = BilateralOptions {
-            similarity,
-            sigma_z2_relative: o.weights.sigma_z2_relative,
-            max_radius: o.max_radius,
-            gather: o.gather,
-        };
-        *light = filter::filter(&guides, self.width, light, &opts).values;
-        for ((pw, wp), g) in part_width.iter_mut().zip(width_px.iter_mut()).zip(&guides) {
-            *pw = g.sigma_px as f32;
-            *wp = wp.max(*pw);
-        }
     }
 
     /// The reflector distances and bandlimit of pixel `p` for `part`; None when its initial
