@@ -155,7 +155,6 @@ pub struct IndirectStrategy {
     /// modes; built once per render.
     guides: Vec<Vec<Guide>>,
     lobe_opts: LobeAwareOptions,
-    bounces: u32,
     /// Projected pixel size per pixel.
     d: Vec<f64>,
     seed: u64,
@@ -184,7 +183,6 @@ impl IndirectStrategy {
             sums: Vec::new(),
             guides: Vec::new(),
             lobe_opts: job.lobe,
-            bounces: job.bounces,
             d: Vec::new(),
             seed: hash_words(&[job.seed, STREAM]),
             rays: 0,

@@ -13,7 +13,7 @@ impl IndirectStrategy {
     /// the glossy pixel's specular lobe (App. B), smoothed with kappa (Eq. 10).
     pub(super) fn guides_of(&self, ctx: &PassContext, g: &GBuffer, part: Part) -> Vec<Guide> {
         let o = &self.lobe_opts;
-        let kappa = o.kappa(self.bounces);
+        let kappa = o.kappa(ctx.job.bounces);
         let camera = ctx.view.position.as_dvec3();
         g.pixels
             .par_iter()
