@@ -429,10 +429,14 @@ def wedge_reference(path, width, height, spp, bounces, out, seed=7):
     t = time.perf_counter()
     subprocess.run(cmd, check=True, capture_output=True)
     secs = time.perf_counter() - t
-    bmp = mi.Bitmap(os.path.join(out, "final.exr"))
-    layers = dict(bmp.split())
+    return read_wedge_exr(os.path.join(out, "final.exr")), secs
+
+
+def read_wedge_exr(path):
+    """The colour (channels R, G, B) of a wedge EXR as an H x W x 3 float64 array."""
+    layers = dict(mi.Bitmap(path).split())
     key = next(k for k in layers if k in ("<root>", "", "R,G,B") or k.endswith("RGB"))
-    return np.array(layers[key], dtype=np.float64)[:, :, :3], secs
+    return np.array(layers[key], dtype=np.float64)[:, :, :3]
 
 
 def mitsuba_render(scene_dict, spp, seed=0, sampler="independent"):

@@ -213,7 +213,7 @@ proptest! {
     fn renders_are_finite_at_any_scale_and_from_inside_geometry(
         scale in magnitude(1e-4, 1e5),
         inside in any::<bool>(),
-        method in prop_oneof![Just(Method::Uniform), Just(Method::Aaf)],
+        method in prop_oneof![Just(Method::Uniform), Just(Method::Aaf), Just(Method::Auto)],
     ) {
         let mut s = small_scene(scale as f32);
         if inside {
@@ -235,6 +235,7 @@ proptest! {
             pixel_centers: false,
             indirect: Default::default(),
             lobe: Default::default(),
+            auto: Default::default(),
         };
         let mut last: Option<Frame> = None;
         render(&job, &CancelToken::new(), &mut |f| { last = Some(f.clone()); true }).expect("render");

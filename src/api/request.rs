@@ -125,6 +125,7 @@ pub fn prepare(
             pixel_centers: settings.pixel_centers,
             indirect: Default::default(),
             lobe: Default::default(),
+            auto: Default::default(),
         },
         info: RenderInfo {
             scene: scene_label.to_string(),

@@ -46,6 +46,7 @@ pub fn job(
         pixel_centers: false,
         indirect: Default::default(),
         lobe: Default::default(),
+        auto: Default::default(),
     }
 }
 

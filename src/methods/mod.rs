@@ -2,6 +2,7 @@
 //! implements `pipeline::strategy::Strategy` over the core (`render`).
 pub mod aaf_indirect;
 pub mod aaf_shadows;
+pub mod auto;
 pub mod lobe_aware;
 pub mod mode;
 pub mod parts;

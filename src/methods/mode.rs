@@ -14,31 +14,19 @@ pub enum FilterMode {
     LobeAware,
     /// As `LobeAware` with the normal-aware weight (Tokuyoshi's Eq. 4, his baseline).
     NormalAware,
-    /// AAF's sample counts and per-pixel filter widths (soft shadows and indirect light), with
-    /// the indirect light gathered by Tokuyoshi's filter with lobe-aware weights in place of
-    /// the AAF filter's normal threshold.
-    Auto,
 }
 
 impl FilterMode {
     /// Whether indirect light is filtered by Tokuyoshi's gather (`lobe_aware::filter`) rather
     /// than the AAF papers' world-space Gaussian.
     pub fn tokuyoshi(self) -> bool {
-        matches!(self, FilterMode::LobeAware | FilterMode::NormalAware | FilterMode::Auto)
+        matches!(self, FilterMode::LobeAware | FilterMode::NormalAware)
     }
 
     /// Whether the indirect strategy also owns direct light (no soft-shadow part): Tokuyoshi's
     /// methods filter indirect light only.
     pub fn indirect_owns_direct(self) -> bool {
         matches!(self, FilterMode::LobeAware | FilterMode::NormalAware)
-    }
-
-    /// The mode the soft-shadow part runs in.
-    pub fn for_shadows(self) -> FilterMode {
-        match self {
-            FilterMode::Auto => FilterMode::Aaf,
-            m => m,
-        }
     }
 
     /// Whether every pixel gets the same samples (doubling per pass).

@@ -25,13 +25,10 @@ pub fn parts(job: &RenderJob, mode: FilterMode) -> (bool, bool) {
 pub fn build(job: &RenderJob, mode: FilterMode) -> Box<dyn Strategy> {
     match parts(job, mode) {
         (false, false) => Box::new(Uniform::new(job)),
-        (true, false) => Box::new(ShadowStrategy::new(job, mode.for_shadows())),
+        (true, false) => Box::new(ShadowStrategy::new(job, mode)),
         (false, true) => Box::new(IndirectStrategy::new(job, mode, true)),
         (true, true) => Box::new(SumOfParts {
-            parts: vec![
-                Box::new(ShadowStrategy::new(job, mode.for_shadows())),
-                Box::new(IndirectStrategy::new(job, mode, false)),
-            ],
+            parts: vec![Box::new(ShadowStrategy::new(job, mode)), Box::new(IndirectStrategy::new(job, mode, false))],
         }),
     }
 }

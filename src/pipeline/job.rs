@@ -4,6 +4,7 @@
 //! strategies, the pass loop, the runner and the front ends can all import it downwards.
 use crate::methods::aaf_indirect::options::IndirectOptions;
 use crate::methods::aaf_shadows::options::AafOptions;
+use crate::methods::auto::options::AutoOptions;
 use crate::methods::lobe_aware::options::LobeAwareOptions;
 use crate::render::camera::Camera;
 pub use crate::render::integrator::Integrand;
@@ -84,6 +85,9 @@ pub struct RenderJob {
     pub indirect: IndirectOptions,
     /// Parameters of the lobe-aware filter (Tokuyoshi 2015) and its normal-aware baseline.
     pub lobe: LobeAwareOptions,
+    /// Parameters of `auto` (its widths' schedule and the gather); it also reads `aaf`,
+    /// `indirect` and `lobe` for the papers' own constants.
+    pub auto: AutoOptions,
 }
 
 impl RenderJob {
@@ -103,6 +107,7 @@ impl RenderJob {
             aaf: AafOptions::default(),
             indirect: IndirectOptions::default(),
             lobe: LobeAwareOptions::default(),
+            auto: AutoOptions::default(),
         }
     }
 

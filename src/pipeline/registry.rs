@@ -6,7 +6,7 @@
 use super::job::{Method, RenderJob};
 use super::strategy::Strategy;
 use crate::methods::mode::FilterMode;
-use crate::methods::{parts, uniform::Uniform};
+use crate::methods::{auto, parts, uniform::Uniform};
 use crate::proto;
 
 pub struct MethodSpec {
@@ -91,11 +91,11 @@ pub const METHODS: &[MethodSpec] = &[
         method: Method::Auto,
         name: "auto",
         proto: proto::Method::Auto,
-        summary: "AAF's sample counts and widths with lobe-aware weights for indirect light (AAF + Tokuyoshi)",
+        summary: "all light filtered apart: AAF's widths (Mehta 2012, 2013) with lobe-aware weights (Tokuyoshi 2015)",
         filters: true,
         needs_gbuffer: true,
-        components: |job| parts::component_names(job, FilterMode::Auto),
-        build: |job| parts::build(job, FilterMode::Auto),
+        components: auto::component_names,
+        build: auto::build,
     },
 ];
 

@@ -29,8 +29,8 @@
 //!   effective beta / 4; the default is the paper's beta.
 //!
 //! The same sampling, demodulation and composition serve Tokuyoshi's methods (`lobe-aware`,
-//! `normal-aware`: equal samples, his gather) and `auto` (these counts and widths, his gather),
-//! as `FilterMode`s; `tokuyoshi.rs` holds their part (methods.md §3.4).
+//! `normal-aware`: equal samples, his gather) as `FilterMode`s; `tokuyoshi.rs` holds their part
+//! (methods.md §3.4).
 pub mod options;
 pub mod params;
 mod tokuyoshi;
@@ -60,21 +60,21 @@ use std::time::Instant;
 
 /// The running sums of one component (diffuse or glossy) of one pixel.
 #[derive(Clone, Copy, Debug, Default)]
-struct ComponentSums {
+pub(crate) struct ComponentSums {
     /// Camera samples that drew this component.
-    n: u32,
+    pub(crate) n: u32,
     /// Of those, the ones that hit a surface reflecting this component (kd or ks non-zero).
-    surface: u32,
+    pub(crate) surface: u32,
     /// Sum of the untextured light (D or S) over the `surface` samples.
-    light: [f64; 3],
+    pub(crate) light: [f64; 3],
     /// Sum of the reflectance (kd or ks; 0 where the sample hit nothing reflecting) over n.
-    reflectance: [f64; 3],
+    pub(crate) reflectance: [f64; 3],
     /// Sum of reflectance * light over n: the plain Monte Carlo estimate's numerator.
-    product: [f64; 3],
+    pub(crate) product: [f64; 3],
 }
 
 impl ComponentSums {
-    fn add(&mut self, reflectance: Vec3, light: Option<Vec3>) {
+    pub(crate) fn add(&mut self, reflectance: Vec3, light: Option<Vec3>) {
         self.n += 1;
         let Some(l) = light else { return };
         self.surface += 1;
@@ -355,8 +355,8 @@ impl IndirectStrategy {
             let mut light: Vec<[f64; 3]> = (0..n).into_par_iter().map(light_mean).collect();
             let mut part_width = vec![0.0f32; n];
             // AAF's per-pixel widths, for the modes that use them.
-            let kernels: Option<Vec<FilterKernel>> =
-                matches!(self.mode, FilterMode::Aaf | FilterMode::UniformFiltered | FilterMode::Auto).then(|| {
+            let kernels: Option<Vec<FilterKernel>> = matches!(self.mode, FilterMode::Aaf | FilterMode::UniformFiltered)
+                .then(|| {
                     let mu = self.mu(pass);
                     (0..n)
                         .into_par_iter()
@@ -382,12 +382,7 @@ impl IndirectStrategy {
             if self.mode.tokuyoshi() {
                 let initial = self.opts.initial_samples.max(1) as f64;
                 let o = &self.lobe_opts;
-                let sigma = |p: usize| match &kernels {
-                    // `auto`: AAF's width in pixels.
-                    Some(k) if k[p].d > 0.0 => k[p].beta / k[p].d,
-                    Some(_) => 0.0,
-                    None => o.sigma_px(at(p).n as f64, initial),
-                };
+                let sigma = |p: usize| o.sigma_px(at(p).n as f64, initial);
                 self.filter_tokuyoshi(part, sigma, &mut light, &mut part_width, &mut width_px);
             } else if let (Some(surface), Some(kernels)) = (&self.surface, &kernels) {
                 part_width.par_iter_mut().zip(width_px.par_iter_mut()).zip(kernels).for_each(|((pw, wp), k)| {
@@ -452,7 +447,7 @@ impl Strategy for IndirectStrategy {
     }
 }
 
-fn glossy_model(scene: &Scene, material: u32) -> GlossyModel {
+pub(crate) fn glossy_model(scene: &Scene, material: u32) -> GlossyModel {
     match scene.materials.get(material as usize) {
         Some(Material::Glossy { model, .. }) => *model,
         _ => GlossyModel::BlinnPhong,
@@ -558,23 +553,31 @@ impl Sample<'_> {
         }
     }
 
-    /// Radiance arriving at `hit` from direction `wi` (indirect only: a ray that reaches a
-    /// light's surface brings nothing, direct light being estimated apart), the reflector
-    /// distance, and the rays traced.
     fn incident(&self, hit: &Surface, wi: Vec3, sampler: &mut PixelSampler) -> (Vec3, Option<f32>, u64) {
-        let scene = self.scene;
-        if hit.ng.dot(wi) <= 0.0 {
-            return (Vec3::ZERO, None, 0);
-        }
-        let o = hit.p + hit.ng * Scene::ray_epsilon(hit.p);
-        let Some(next) = scene.intersect(o, wi, 0.0) else { return (Vec3::ZERO, None, 1) };
-        if matches!(scene.materials[next.material as usize], Material::Emitter { .. }) {
-            return (Vec3::ZERO, Some(next.t), 1);
-        }
-        let bounces = self.job.bounces.saturating_sub(1);
-        let r = radiance_from(scene, next, -wi, bounces, sampler, DirectLights::All);
-        (r.radiance, Some(next.t), 1 + r.rays as u64)
+        incident(self.scene, self.job.bounces, hit, wi, sampler)
     }
+}
+
+/// Radiance arriving at `hit` from direction `wi` over a path of `bounces` indirect bounces in
+/// all (indirect only: a ray that reaches a light's surface brings nothing, direct light being
+/// estimated apart), the reflector distance, and the rays traced.
+pub(crate) fn incident(
+    scene: &Scene,
+    bounces: u32,
+    hit: &Surface,
+    wi: Vec3,
+    sampler: &mut PixelSampler,
+) -> (Vec3, Option<f32>, u64) {
+    if hit.ng.dot(wi) <= 0.0 {
+        return (Vec3::ZERO, None, 0);
+    }
+    let o = hit.p + hit.ng * Scene::ray_epsilon(hit.p);
+    let Some(next) = scene.intersect(o, wi, 0.0) else { return (Vec3::ZERO, None, 1) };
+    if matches!(scene.materials[next.material as usize], Material::Emitter { .. }) {
+        return (Vec3::ZERO, Some(next.t), 1);
+    }
+    let r = radiance_from(scene, next, -wi, bounces.saturating_sub(1), sampler, DirectLights::All);
+    (r.radiance, Some(next.t), 1 + r.rays as u64)
 }
 
 fn record_reflector(px: &mut PixelSums, z: Option<f32>) {

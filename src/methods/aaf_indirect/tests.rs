@@ -31,6 +31,7 @@ fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64, bounces: u32) 
         pixel_centers: false,
         indirect: IndirectOptions::default(),
         lobe: Default::default(),
+        auto: Default::default(),
     }
 }
 

@@ -1,4 +1,4 @@
-//! The lobe- and normal-aware modes and `auto` (methods.md §3.4): Tokuyoshi's guides built once
+//! The lobe- and normal-aware modes (methods.md §3.4): Tokuyoshi's guides built once
 //! from the G-buffer, and his gather in place of the AAF filter.
 use super::{glossy_model, IndirectStrategy, Part};
 use crate::methods::lobe_aware::filter::{self, BilateralOptions, Guide, Similarity};
@@ -42,7 +42,7 @@ impl IndirectStrategy {
 
     /// Filters the untextured light of `part` with Tokuyoshi's gather (Eq. 1), pixel p's screen
     /// kernel `sigma(p)` pixels wide (narrowing with the samples for the lobe- and
-    /// normal-aware methods, AAF's width for `auto`); pixels whose samples found no reflecting
+    /// normal-aware methods); pixels whose samples found no reflecting
     /// surface stay out.
     pub(super) fn filter_tokuyoshi(
         &self,

@@ -49,15 +49,17 @@ use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
 
-/// One rectangular light as the strategy sees it.
-struct ShadowLight {
+/// One rectangular light as the strategy (and `auto`'s shadow part) sees it.
+pub(crate) struct ShadowLight {
     /// Index in `scene.lights`.
-    index: usize,
+    pub(crate) index: usize,
     corner: Vec3,
     axis_u: Vec3,
     axis_v: Vec3,
-    sigma: f64,
-    mu_scale: f64,
+    /// The light's standard deviation sigma of Eqs. 13 and 21.
+    pub(crate) sigma: f64,
+    /// mu's factor for this light's profile (uniform lights: `uniform_light_mu_scale`).
+    pub(crate) mu_scale: f64,
 }
 
 /// Running sums of one pixel for one light.
@@ -121,27 +123,27 @@ struct Target {
 /// A pixel-light's slopes s1 >= s2, if it has any, in f32: the fill writes one per pixel and
 /// light, and f32's 7 digits are far finer than the slopes' own accuracy (9 rays).
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Slopes {
+pub(crate) struct Slopes {
     /// NaN when there are none.
     s1: f32,
     s2: f32,
 }
 
 impl Slopes {
-    const NONE: Slopes = Slopes { s1: f32::NAN, s2: f32::NAN };
+    pub(crate) const NONE: Slopes = Slopes { s1: f32::NAN, s2: f32::NAN };
 
     fn new(s1: f64, s2: f64) -> Self {
         Slopes { s1: s1 as f32, s2: s2 as f32 }
     }
 
-    fn get(self) -> Option<(f64, f64)> {
+    pub(crate) fn get(self) -> Option<(f64, f64)> {
         (!self.s1.is_nan()).then_some((self.s1 as f64, self.s2 as f64))
     }
 }
 
 /// Slopes no larger than this keep averages and products finite (s -> inf means an occluder
 /// at the light, where every formula has already saturated).
-const MAX_SLOPE: f64 = 1e9;
+pub(crate) const MAX_SLOPE: f64 = 1e9;
 
 pub struct ShadowStrategy {
     mode: FilterMode,
@@ -296,7 +298,7 @@ impl ShadowStrategy {
                         let n = sparse.saturating_mul(1u32 << (pass - 1).min(20));
                         Target { n, r: n }
                     }
-                    FilterMode::Aaf | FilterMode::Adaptive | FilterMode::Auto => {
+                    FilterMode::Aaf | FilterMode::Adaptive => {
                         let light = &self.lights[l];
                         let mu = self.mu(pass) * light.mu_scale;
                         let cap = (self.opts.cap * mu * mu).max(sparse as f64);
@@ -367,67 +369,13 @@ impl ShadowStrategy {
     }
 
     /// Slopes for every pixel-light: its own from the sparse pass, or the mean of occluded
-    /// pixels within `fill_radius` for pixels whose sparse rays saw no occluder (Sec. 6). The
-    /// disc sums come from per-row prefix sums, one span per row of the disc. Bands of rows
-    /// run in parallel, each with the prefix sums of its own rows and the `fill_radius` rows
-    /// around them: a band's prefix sums stay in cache, and no image-sized buffer is
-    /// allocated besides the result (fresh pages cost more than this pass's arithmetic).
+    /// pixels within `fill_radius` for pixels whose sparse rays saw no occluder (Sec. 6).
     fn fill_slopes(&mut self) {
-        const BAND: usize = 32;
-        let (w, h, nl) = (self.width, self.height, self.lights.len());
         let Some(g) = self.gbuffer.as_ref() else { return };
-        if w == 0 || nl == 0 {
-            return;
-        }
-        let r = self.opts.fill_radius as usize;
-        let half_widths: Vec<usize> = (0..=r).map(|dy| ((r * r - dy * dy) as f64).sqrt().floor() as usize).collect();
         let sums = &self.sums;
-        let mut slopes = filled(w * h * nl, Slopes::NONE);
-        slopes.par_chunks_mut(BAND * w * nl).enumerate().for_each_init(Vec::new, |prefix, (band, out)| {
-            let (y0, y1) = (band * BAND, (band * BAND + BAND).min(h));
-            let p0 = y0.saturating_sub(r);
-            // prefix[((y - p0) * nl + l) * (w + 1) + x] = (count, sum s1, sum s2) of the
-            // pixels of row y left of x whose own rays saw an occluder of light l.
-            prefix.clear();
-            prefix.resize(((y1 + r).min(h) - p0) * nl * (w + 1), [0.0f64; 3]);
-            for (i, row) in prefix.chunks_mut(w + 1).enumerate() {
-                let (y, l) = (p0 + i / nl, i % nl);
-                for x in 0..w {
-                    let q = &sums[(y * w + x) * nl + l];
-                    let [c, a, b] = row[x];
-                    row[x + 1] = if q.occluded {
-                        [c + 1.0, a + q.s1.min(MAX_SLOPE), b + q.s2.min(MAX_SLOPE)]
-                    } else {
-                        [c, a, b]
-                    };
-                }
-            }
-            let span = |y: usize, l: usize| &prefix[((y - p0) * nl + l) * (w + 1)..][..w + 1];
-            for (i, out) in out.iter_mut().enumerate() {
-                let (y, x, l) = (y0 + i / (w * nl), (i / nl) % w, i % nl);
-                if !g.pixels[y * w + x].is_valid() {
-                    continue;
-                }
-                let own = span(y, l);
-                if own[x + 1][0] > own[x][0] {
-                    let q = &sums[(y * w + x) * nl + l];
-                    *out = Slopes::new(q.s1.min(MAX_SLOPE), q.s2.min(MAX_SLOPE));
-                    continue;
-                }
-                let [mut count, mut s1, mut s2] = [0.0; 3];
-                for ny in y.saturating_sub(r)..(y + r + 1).min(h) {
-                    let (row, hw) = (span(ny, l), half_widths[ny.abs_diff(y)]);
-                    let (lo, hi) = (x.saturating_sub(hw), (x + hw + 1).min(w));
-                    count += row[hi][0] - row[lo][0];
-                    s1 += row[hi][1] - row[lo][1];
-                    s2 += row[hi][2] - row[lo][2];
-                }
-                if count > 0.5 {
-                    *out = Slopes::new(s1 / count, s2 / count);
-                }
-            }
-        });
-        self.slopes = slopes;
+        let own = |k: usize| sums[k].occluded.then(|| (sums[k].s1, sums[k].s2));
+        let at = FillGrid { width: self.width, height: self.height, lights: self.lights.len() };
+        self.slopes = fill_slopes(at, self.opts.fill_radius as usize, &|p| g.pixels[p].is_valid(), &own, true);
     }
 
     /// Builds the frame of pass `pass`: filters each light's visibility and composes. Also
@@ -551,6 +499,82 @@ impl Strategy for ShadowStrategy {
     }
 }
 
+/// The pixel-light grid `fill_slopes` works on: `lights` entries per pixel, pixel-major.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FillGrid {
+    pub(crate) width: usize,
+    pub(crate) height: usize,
+    pub(crate) lights: usize,
+}
+
+/// Slopes for every pixel-light `k = pixel * lights + l` of valid pixels (Sec. 6): with
+/// `prefer_own`, a pixel-light's own slopes (`own(k)`, Some where its rays saw an occluder),
+/// else the mean over the pixels within `radius` whose own rays saw one of light l, itself
+/// included (`auto` uses that mean everywhere, so that a pixel's width does not follow its own
+/// few samples). The disc sums come from per-row prefix sums, one span per row of the disc.
+/// Bands of rows run in parallel, each with the prefix sums of its own rows and the `radius`
+/// rows around them: a band's prefix sums stay in cache, and no image-sized buffer is
+/// allocated besides the result (fresh pages cost more than this pass's arithmetic).
+pub(crate) fn fill_slopes(
+    grid: FillGrid,
+    radius: usize,
+    valid: &(dyn Fn(usize) -> bool + Sync),
+    own: &(dyn Fn(usize) -> Option<(f64, f64)> + Sync),
+    prefer_own: bool,
+) -> Vec<Slopes> {
+    const BAND: usize = 32;
+    let FillGrid { width: w, height: h, lights: nl } = grid;
+    let mut slopes = filled(w * h * nl, Slopes::NONE);
+    if w == 0 || nl == 0 {
+        return slopes;
+    }
+    let r = radius;
+    let half_widths: Vec<usize> = (0..=r).map(|dy| ((r * r - dy * dy) as f64).sqrt().floor() as usize).collect();
+    slopes.par_chunks_mut(BAND * w * nl).enumerate().for_each_init(Vec::new, |prefix, (band, out)| {
+        let (y0, y1) = (band * BAND, (band * BAND + BAND).min(h));
+        let p0 = y0.saturating_sub(r);
+        // prefix[((y - p0) * nl + l) * (w + 1) + x] = (count, sum s1, sum s2) of the
+        // pixels of row y left of x whose own rays saw an occluder of light l.
+        prefix.clear();
+        prefix.resize(((y1 + r).min(h) - p0) * nl * (w + 1), [0.0f64; 3]);
+        for (i, row) in prefix.chunks_mut(w + 1).enumerate() {
+            let (y, l) = (p0 + i / nl, i % nl);
+            for x in 0..w {
+                let [c, a, b] = row[x];
+                row[x + 1] = match own((y * w + x) * nl + l) {
+                    Some((s1, s2)) => [c + 1.0, a + s1.min(MAX_SLOPE), b + s2.min(MAX_SLOPE)],
+                    None => [c, a, b],
+                };
+            }
+        }
+        let span = |y: usize, l: usize| &prefix[((y - p0) * nl + l) * (w + 1)..][..w + 1];
+        for (i, out) in out.iter_mut().enumerate() {
+            let (y, x, l) = (y0 + i / (w * nl), (i / nl) % w, i % nl);
+            if !valid(y * w + x) {
+                continue;
+            }
+            if prefer_own {
+                if let Some((s1, s2)) = own((y * w + x) * nl + l) {
+                    *out = Slopes::new(s1.min(MAX_SLOPE), s2.min(MAX_SLOPE));
+                    continue;
+                }
+            }
+            let [mut count, mut s1, mut s2] = [0.0; 3];
+            for ny in y.saturating_sub(r)..(y + r + 1).min(h) {
+                let (row, hw) = (span(ny, l), half_widths[ny.abs_diff(y)]);
+                let (lo, hi) = (x.saturating_sub(hw), (x + hw + 1).min(w));
+                count += row[hi][0] - row[lo][0];
+                s1 += row[hi][1] - row[lo][1];
+                s2 += row[hi][2] - row[lo][2];
+            }
+            if count > 0.5 {
+                *out = Slopes::new(s1 / count, s2 / count);
+            }
+        }
+    });
+    slopes
+}
+
 /// The filter's surface for `light`: each hit point in the light plane's coordinates, so that
 /// offsets along the light normal do not count (Eq. 12).
 fn light_plane_surface(g: &GBuffer, light: &ShadowLight, width: usize, o: &FilterOptions) -> FilterSurface {
@@ -561,7 +585,7 @@ fn light_plane_surface(g: &GBuffer, light: &ShadowLight, width: usize, o: &Filte
     })
 }
 
-fn shadow_light(index: usize, r: &RectLight, opts: &AafOptions) -> ShadowLight {
+pub(crate) fn shadow_light(index: usize, r: &RectLight, opts: &AafOptions) -> ShadowLight {
     let axis_u = r.edge_u.normalize_or_zero();
     ShadowLight {
         index,
@@ -597,12 +621,12 @@ fn variance_of_mean(sum: f64, sum2: f64, n: u32) -> f64 {
 /// A / B per channel. Where no light sample carried any light (B = 0) there is no evidence of
 /// occlusion, and the visibility is taken as 1: r alone decides (it is 0 where the pixel
 /// cannot see the light at all).
-fn ratio(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub(crate) fn ratio(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [0, 1, 2].map(|c| if b[c] > 0.0 { a[c] / b[c] } else { 1.0 })
 }
 
 /// The unshadowed diffuse light r of `rect` at `hit` seen from `wo` (exact, Eq. 1's r(x)).
-fn unshadowed(rect: &RectLight, hit: &Surface, wo: Vec3, kd: Vec3) -> DVec3 {
+pub(crate) fn unshadowed(rect: &RectLight, hit: &Surface, wo: Vec3, kd: Vec3) -> DVec3 {
     // kd/pi where the BRDF is defined: like `Brdf::eval`, nothing where the shading normal
     // faces away from the viewer (silhouettes of smooth-shaded meshes).
     let diffuse = if hit.ns.dot(wo) > 0.0 { kd * (1.0 / std::f32::consts::PI) } else { Vec3::ZERO };
@@ -760,7 +784,7 @@ fn sample_pixel(
 /// ray, using the per-ray form s = t/(L - t) (methods.md §1.1). One traversal collects both
 /// ends of the occluded range, as the authors' any-hit shader did. Also returns the extra rays
 /// traced.
-fn occluder_slopes(scene: &Scene, p: Vec3, ng: Vec3, y: Vec3) -> (Option<(f64, f64)>, u64) {
+pub(crate) fn occluder_slopes(scene: &Scene, p: Vec3, ng: Vec3, y: Vec3) -> (Option<(f64, f64)>, u64) {
     let o = p + ng * Scene::ray_epsilon(p);
     let d = y - o;
     let l = d.length();

@@ -69,6 +69,7 @@ fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64) -> RenderJob {
         pixel_centers: false,
         indirect: Default::default(),
         lobe: Default::default(),
+        auto: Default::default(),
     }
 }
 

@@ -6,6 +6,7 @@
 pub mod filter;
 pub mod lobe;
 pub mod options;
+pub mod packed;
 pub mod sg;
 pub mod weights;
 

@@ -97,33 +97,3 @@ fn the_filtered_stream_converges_to_the_per_pixel_mean() {
         assert!(e < 0.01 * scale, "{method:?}: rmse {e} vs mean {scale}");
     }
 }
-
-/// `auto` is AAF with Tokuyoshi's gather for indirect light: the same samples and the same
-/// per-pixel widths as `aaf` at every pass (only the edge-stopping weights differ), the same
-/// parts, and the energy of plain path tracing.
-#[test]
-fn auto_takes_aaf_samples_and_widths_and_keeps_the_energy() {
-    for (name, parts) in [("cornell", &["shadow", "diffuse"][..]), ("cornell-glossy", &["diffuse", "glossy"][..])] {
-        let s = builtin(name, 24, 24);
-        let reference = reference(s.clone(), 1, 1024.0);
-        let auto = frames(&job(s.clone(), Method::Auto, 3, 2, 1));
-        let aaf = frames(&job(s, Method::Aaf, 3, 2, 1));
-        for (a, b) in auto.iter().zip(&aaf) {
-            let names: Vec<&str> = a.components.iter().map(|c| c.name.as_str()).collect();
-            assert_eq!(names, parts, "{name}");
-            assert_eq!(a.spp, b.spp, "{name}");
-            for (ca, cb) in a.components.iter().zip(&b.components) {
-                assert_eq!(ca.spp, cb.spp, "{name} {}", ca.name);
-                let (wa, wb) = (ca.filter_width.as_ref().unwrap(), cb.filter_width.as_ref().unwrap());
-                let same = wa.iter().zip(wb).all(|(x, y)| (x - y).abs() <= 1e-6 * y.max(1.0));
-                let diff = wa.iter().zip(wb).enumerate().find(|(_, (x, y))| (*x - *y).abs() > 1e-6 * y.max(1.0));
-                assert!(same, "{name} {}: widths differ {diff:?}", ca.name);
-            }
-            assert_eq!(a.unfiltered_color(), b.unfiltered_color(), "{name}: the same samples");
-        }
-        let last = auto.last().unwrap();
-        let (m, r) = (mean(&last.color), mean(&reference.color));
-        assert!((m / r - 1.0).abs() < 0.02, "{name}: mean {m} vs {r}");
-        assert_ne!(last.color, aaf.last().unwrap().color, "{name}: the gathers differ");
-    }
-}

@@ -53,6 +53,7 @@ fn job(scene: Arc<Scene>, halt: Halt) -> RenderJob {
         pixel_centers: false,
         indirect: Default::default(),
         lobe: Default::default(),
+        auto: Default::default(),
     }
 }
 

@@ -1,0 +1,366 @@
+//! `auto`: one frequency-guided filter for all the light (methods.md §5). The fusion no paper
+//! makes: the axis-aligned filters' per-pixel widths (Mehta 2012 for area-light soft shadows,
+//! Mehta 2013 for indirect light) with Tokuyoshi 2015's lobe-aware cross-bilateral weights in
+//! place of their normal threshold, every part of the light filtered apart and untextured.
+//!
+//! - **Samples.** The same samples everywhere, doubling per pass as in `uniform` (the AAF
+//!   papers' counts ask for many more than a preview budget has: here they are a ceiling the
+//!   widths respect, not a floor). One jittered camera path per sample, split at its first hit
+//!   (`sample.rs`): each rectangular light's diffuse direct light as r(x) times visibility
+//!   (Mehta 2012 Eq. 1: r exact, the visibility A / B the only noisy factor), the indirect
+//!   light under the cosine lobe and under the glossy lobe without textures (Mehta 2013
+//!   Sec. 5), and the rest (emission, point lights, glossy direct light) unfiltered.
+//! - **Analysis.** The first `analysis_spp` samples of each pixel record their occluded shadow
+//!   rays' slopes (Mehta 2012 Eq. 4) and their bounce rays' reflector distances (Mehta 2013
+//!   Sec. 5), as the papers' sparse and initial rays do. Every pixel takes them from its
+//!   neighbourhood, so that no width follows its own few samples (which biases the mean).
+//! - **Widths.** At n samples per pixel each part is filtered at the width its paper gives at
+//!   mu = mu0 (n / n_ref)^(1/6) (Mehta 2012 Eq. 13, Mehta 2013 Eqs. 15-16): the papers' widths
+//!   at their operating point near n_ref, wider below it, narrowing as the samples grow so that
+//!   the stream converges to the `uniform` ground truth.
+//! - **Filter.** Tokuyoshi's gather (Eq. 1) with the depth weight (Eq. 3) and the lobe-aware
+//!   weight (Eq. 12): diffuse lobes for the visibility and the diffuse light, each pixel's
+//!   specular lobe for the glossy light (`lobe_aware::packed`).
+//!
+//! Ambient-occlusion renders are the indirect paper's extension (Sec. 6): `auto` renders them as
+//! `aaf` does.
+pub mod options;
+mod sample;
+#[cfg(test)]
+mod tests;
+mod widths;
+
+pub use options::AutoOptions;
+
+use super::aaf_indirect::IndirectStrategy;
+use super::aaf_shadows::{fill_slopes, ratio, shadow_light, FillGrid, ShadowLight, Slopes};
+use super::lobe_aware::filter::Guide;
+use super::lobe_aware::lobe;
+use super::lobe_aware::packed::{gather, PackedGuide, PackedOptions};
+use super::mode::FilterMode;
+use super::parts;
+use super::uniform::Uniform;
+use crate::pipeline::film::{mean, Tally};
+use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
+use crate::pipeline::job::{Integrand, RenderError, RenderJob};
+use crate::pipeline::strategy::{PassContext, PassOutput, Strategy};
+use crate::render::gbuffer::GBuffer;
+use crate::render::huge_pages::filled;
+use crate::render::light::Light;
+use crate::render::sampler::hash_words;
+use rayon::prelude::*;
+use sample::{LightSums, PixelSums, Sampling};
+use std::sync::Arc;
+use std::time::Instant;
+use widths::Widths;
+
+/// The strategy of `auto` for `job`.
+pub fn build(job: &RenderJob) -> Box<dyn Strategy> {
+    match job.integrand {
+        Integrand::AmbientOcclusion { .. } => parts::build(job, FilterMode::Aaf),
+        Integrand::Radiance => Box::new(AutoStrategy::new(job)),
+    }
+}
+
+/// The per-component maps a frame of `job` carries, in order.
+pub fn component_names(job: &RenderJob) -> Vec<&'static str> {
+    if let Integrand::AmbientOcclusion { .. } = job.integrand {
+        return parts::component_names(job, FilterMode::Aaf);
+    }
+    let mut names = Vec::new();
+    if job.scene.lights.iter().any(|l| matches!(l, Light::Rect(_))) {
+        names.push("shadow");
+    }
+    if job.bounces > 0 {
+        names.push("diffuse");
+        if IndirectStrategy::has_glossy(&job.scene) {
+            names.push("glossy");
+        }
+    }
+    names
+}
+
+/// Random stream of `auto`'s samples.
+const STREAM: u64 = 0x6175_746f;
+
+pub struct AutoStrategy {
+    opts: AutoOptions,
+    width: usize,
+    height: usize,
+    /// The rectangular lights, and per scene light its index among them.
+    lights: Vec<ShadowLight>,
+    slot: Vec<Option<usize>>,
+    glossy: bool,
+    seed: u64,
+    sums: Vec<PixelSums>,
+    /// Pixel-major: light_sums[pixel * lights + l].
+    light_sums: Vec<LightSums>,
+    /// Per pixel-light, the slopes its visibility is filtered with (from the neighbourhood).
+    slopes: Vec<Slopes>,
+    gbuffer: Option<Arc<GBuffer>>,
+    /// Tokuyoshi's guides from the G-buffer: diffuse lobes and specular lobes.
+    diffuse_guides: Vec<PackedGuide>,
+    glossy_guides: Vec<PackedGuide>,
+    widths: Option<Widths>,
+    /// Samples per pixel the passes so far asked for.
+    target: u32,
+    rays: u64,
+    dropped: u64,
+    method_seconds: f64,
+}
+
+impl AutoStrategy {
+    pub fn new(job: &RenderJob) -> Self {
+        let mut lights = Vec::new();
+        let slot = (job.scene.lights.iter().enumerate())
+            .map(|(i, l)| match l {
+                Light::Rect(r) => {
+                    lights.push(shadow_light(i, r, &job.aaf));
+                    Some(lights.len() - 1)
+                }
+                Light::Point(_) => None,
+            })
+            .collect();
+        AutoStrategy {
+            opts: job.auto,
+            width: job.width() as usize,
+            height: job.height() as usize,
+            lights,
+            slot,
+            glossy: job.bounces > 0 && IndirectStrategy::has_glossy(&job.scene),
+            seed: hash_words(&[job.seed, STREAM]),
+            sums: Vec::new(),
+            light_sums: Vec::new(),
+            slopes: Vec::new(),
+            gbuffer: None,
+            diffuse_guides: Vec::new(),
+            glossy_guides: Vec::new(),
+            widths: None,
+            target: 0,
+            rays: 0,
+            dropped: 0,
+            method_seconds: 0.0,
+        }
+    }
+
+    fn setup(&mut self, ctx: &PassContext) {
+        let g = Arc::clone(ctx.gbuffer());
+        let n = self.width * self.height;
+        self.sums = filled(n, PixelSums::default());
+        // At least one entry per pixel, so that the rows of sums and of light sums pair up
+        // (`trace`) in a scene with no rectangular light too.
+        self.light_sums = filled(n * self.lights.len().max(1), LightSums::default());
+        let t = Instant::now();
+        let kappa = ctx.job.lobe.kappa(ctx.job.bounces);
+        let camera = ctx.view.position.as_dvec3();
+        let guide = |s: &crate::render::gbuffer::GSample, glossy: bool| {
+            let normal = s.normal.as_dvec3();
+            let lobe = if glossy {
+                let psi = (camera - s.position.as_dvec3()).normalize_or_zero();
+                let model = crate::methods::aaf_indirect::glossy_model(ctx.scene, s.material);
+                lobe::specular(model, s.exponent as f64, normal, psi, &ctx.job.lobe.lobe)
+            } else {
+                lobe::diffuse(normal)
+            };
+            let valid = s.is_valid() && !s.emitter;
+            PackedGuide::new(&Guide { valid, depth: s.depth as f64, normal, lobe: lobe.smoothed(kappa), sigma_px: 0.0 })
+        };
+        self.diffuse_guides = g.pixels.par_iter().map(|s| guide(s, false)).collect();
+        if self.glossy {
+            self.glossy_guides = g.pixels.par_iter().map(|s| guide(s, true)).collect();
+        }
+        self.widths = Some(Widths::new(ctx, &g));
+        self.method_seconds += t.elapsed().as_secs_f64();
+        self.gbuffer = Some(g);
+    }
+
+    /// Traces every pixel up to `target` samples.
+    fn trace(&mut self, ctx: &PassContext, target: u32) -> Result<bool, RenderError> {
+        let (w, nl) = (self.width.max(1), self.lights.len());
+        let sampling = Sampling {
+            scene: ctx.scene,
+            job: ctx.job,
+            slot: &self.slot,
+            analysis_spp: self.opts.analysis_spp,
+            quadrature_spp: self.opts.quadrature_spp,
+        };
+        let seed = self.seed;
+        let results: Vec<Tally> = self
+            .sums
+            .par_chunks_mut(w)
+            .zip(self.light_sums.par_chunks_mut(w * nl.max(1)))
+            .enumerate()
+            .map(|(y, (row, light_row))| {
+                let (mut rays, mut dropped) = (0u64, 0u64);
+                for (x, px) in row.iter_mut().enumerate() {
+                    if ctx.stop.should_stop() {
+                        return Tally { rays, dropped, complete: false };
+                    }
+                    let lights = &mut light_row[x * nl..(x + 1) * nl];
+                    while px.taken < target {
+                        let (r, d) = sampling.run(x, y, seed, px, lights);
+                        rays += r;
+                        dropped += d;
+                    }
+                }
+                Tally { rays, dropped, complete: true }
+            })
+            .collect();
+        if ctx.stop.is_cancelled() {
+            return Err(RenderError::Cancelled);
+        }
+        let total = Tally::total(&results);
+        self.rays += total.rays;
+        self.dropped += total.dropped;
+        Ok(total.complete)
+    }
+
+    /// The slopes every pixel-light is filtered with: the mean of the analysis samples' slopes
+    /// over its neighbourhood (Mehta 2012 Sec. 6's fill, the pixel's own included).
+    fn update_slopes(&mut self, fill_radius: usize) {
+        let Some(g) = self.gbuffer.as_ref() else { return };
+        let sums = &self.light_sums;
+        let own = |k: usize| sums[k].occluded.then(|| (sums[k].s1, sums[k].s2));
+        let grid = FillGrid { width: self.width, height: self.height, lights: self.lights.len() };
+        self.slopes = fill_slopes(grid, fill_radius, &|p| g.pixels[p].is_valid(), &own, false);
+    }
+
+    /// Builds the frame: filters each part and composes.
+    fn frame(&self, ctx: &PassContext) -> Frame {
+        let n = self.width * self.height;
+        let nl = self.lights.len();
+        let widths = self.widths.as_ref().expect("set up in pass 0");
+        let o = PackedOptions {
+            beta: self.opts.beta as f32,
+            sigma_z2_relative: self.opts.sigma_z2_relative as f32,
+            max_radius: self.opts.max_radius,
+        };
+        let mut width_px = vec![0.0f32; n];
+        let mut components = Vec::new();
+        let invalid_unless = |guides: &[PackedGuide], keep: &(dyn Fn(usize) -> bool + Sync)| -> Vec<PackedGuide> {
+            guides.par_iter().enumerate().map(|(p, g)| if keep(p) { *g } else { PackedGuide::INVALID }).collect()
+        };
+        let max_into = |acc: &mut [f32], w: &[f32]| acc.iter_mut().zip(w).for_each(|(a, b)| *a = a.max(*b));
+        // Soft shadows: each light's visibility, filtered.
+        let mut shadow_width = vec![0.0f32; n];
+        let visibility: Vec<Vec<[f32; 3]>> = (0..nl)
+            .map(|l| {
+                let at = |p: usize| &self.light_sums[p * nl + l];
+                let raw: Vec<[f32; 3]> =
+                    (0..n).into_par_iter().map(|p| ratio(at(p).a, at(p).b).map(|x| x as f32)).collect();
+                let slopes = |p: usize| self.slopes.get(p * nl + l).and_then(|s| s.get());
+                let sigma = widths.shadow(ctx, &self.lights[l], slopes, &self.sums, &self.opts);
+                let guides = invalid_unless(&self.diffuse_guides, &|p| at(p).b.iter().any(|&b| b > 0.0));
+                let mut vis = raw;
+                gather(&guides, &sigma, self.width, &mut vis, &o);
+                max_into(&mut shadow_width, &sigma);
+                vis
+            })
+            .collect();
+        if nl > 0 {
+            max_into(&mut width_px, &shadow_width);
+            components.push(ComponentMaps {
+                name: "shadow".to_string(),
+                spp: self.sums.par_iter().map(|s| s.taken as f32).collect(),
+                filter_width: Some(shadow_width),
+            });
+        }
+        // Indirect light: each component's untextured light, filtered.
+        let parts: &[bool] = match (ctx.job.bounces > 0, self.glossy) {
+            (false, _) => &[],
+            (true, false) => &[false],
+            (true, true) => &[false, true],
+        };
+        let indirect: Vec<(bool, Vec<[f32; 3]>)> = parts
+            .iter()
+            .map(|&glossy| {
+                let at = |p: usize| if glossy { &self.sums[p].glossy } else { &self.sums[p].diffuse };
+                let mut light: Vec<[f32; 3]> =
+                    (0..n).into_par_iter().map(|p| mean(at(p).light, at(p).surface).map(|x| x as f32)).collect();
+                let sigma = widths.indirect(ctx, glossy, &self.sums, &self.opts);
+                let base = if glossy { &self.glossy_guides } else { &self.diffuse_guides };
+                let guides = invalid_unless(base, &|p| at(p).surface > 0);
+                gather(&guides, &sigma, self.width, &mut light, &o);
+                max_into(&mut width_px, &sigma);
+                components.push(ComponentMaps {
+                    name: if glossy { "glossy" } else { "diffuse" }.to_string(),
+                    spp: (0..n).into_par_iter().map(|p| at(p).n as f32).collect(),
+                    filter_width: Some(sigma),
+                });
+                (glossy, light)
+            })
+            .collect();
+        // Compose: rest + sum over lights of r times visibility + K filter(Lbar) + (P - K Lbar)
+        // per indirect component (`aaf_indirect`: the correction makes the unfiltered limit
+        // exactly the Monte Carlo mean where the reflectance varies over the pixel).
+        let (color, unfiltered): (Vec<[f32; 3]>, Vec<[f32; 3]>) = (0..n)
+            .into_par_iter()
+            .map(|p| {
+                let s = &self.sums[p];
+                let rest = mean(s.rest, s.taken);
+                let (mut color, mut unfiltered) = (rest, rest);
+                for (l, vis) in visibility.iter().enumerate() {
+                    let ls = &self.light_sums[p * nl + l];
+                    let (r, raw) = (mean(ls.r, ls.r_n), ratio(ls.a, ls.b));
+                    for c in 0..3 {
+                        color[c] += r[c] * vis[p][c] as f64;
+                        unfiltered[c] += r[c] * raw[c];
+                    }
+                }
+                for (glossy, light) in &indirect {
+                    let cs = if *glossy { &s.glossy } else { &s.diffuse };
+                    let (k, raw, prod) =
+                        (mean(cs.reflectance, cs.n), mean(cs.light, cs.surface), mean(cs.product, cs.n));
+                    for c in 0..3 {
+                        color[c] += k[c] * light[p][c] as f64 + (prod[c] - k[c] * raw[c]);
+                        unfiltered[c] += prod[c];
+                    }
+                }
+                (color.map(|x| x.max(0.0) as f32), unfiltered.map(|x| x.max(0.0) as f32))
+            })
+            .unzip();
+        let spp: Vec<f32> = self.sums.par_iter().map(|s| s.taken as f32).collect();
+        Frame {
+            width: self.width as u32,
+            height: self.height as u32,
+            color,
+            unfiltered: Some(unfiltered),
+            stats: FrameStats {
+                mean_spp: spp.iter().map(|&s| s as f64).sum::<f64>() / n.max(1) as f64,
+                rays_traced: self.rays,
+                dropped_samples: self.dropped,
+                ..FrameStats::default()
+            },
+            spp,
+            filter_width: Some(width_px),
+            components,
+        }
+    }
+}
+
+impl Strategy for AutoStrategy {
+    fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError> {
+        if ctx.pass == 0 {
+            self.setup(ctx);
+        }
+        let before = self.target;
+        self.target = Uniform::pass_spp(ctx.job.initial_spp, ctx.pass, 0, ctx.job.halt.max_mean_spp).max(before);
+        let traced = Instant::now();
+        let complete = self.trace(ctx, self.target)?;
+        let t = Instant::now();
+        tracing::debug!(pass = ctx.pass, spp = self.target, seconds = (t - traced).as_secs_f64(), "auto: traced");
+        // The analysis samples just added move the slopes and reflector distances.
+        if before < self.opts.analysis_spp {
+            self.update_slopes(ctx.job.aaf.fill_radius as usize);
+            let (sums, opts) = (&self.sums, &self.opts);
+            if let Some(w) = self.widths.as_mut() {
+                w.update_reflectors(ctx, sums, opts);
+            }
+        }
+        let mut frame = self.frame(ctx);
+        tracing::debug!(pass = ctx.pass, seconds = t.elapsed().as_secs_f64(), "auto: analysis and filters");
+        self.method_seconds += t.elapsed().as_secs_f64();
+        frame.stats.method_seconds = self.method_seconds;
+        Ok(PassOutput { frame, complete })
+    }
+}

@@ -1,0 +1,73 @@
+//! Options of `auto` (plain data: the job carries them).
+
+/// How `auto` sets its filters (methods.md §5).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AutoOptions {
+    /// The samples per pixel at which each part is filtered at its AAF paper's mu0 (the
+    /// papers' operating point): at n samples the filters use mu = mu0 (n / n_ref)^(1/6).
+    pub reference_spp: f64,
+    /// The exponent of that growth: 1/6 balances a bias growing as the width squared against
+    /// a variance falling as 1 / (n width^2).
+    pub refine_exponent: f64,
+    /// Scale of the soft-shadow widths (Mehta 2012 Eq. 13).
+    pub shadow_width_scale: f64,
+    /// Scale of the indirect widths (Mehta 2013 Eqs. 15-16), diffuse and glossy.
+    pub indirect_width_scale: f64,
+    /// The samples per pixel whose shadow and bounce rays feed the frequency analysis (slopes,
+    /// reflector distances): the first ones, as the papers' sparse and initial rays.
+    pub analysis_spp: u32,
+    /// Radius in pixels of the neighbourhood whose reflector distances set a pixel's indirect
+    /// width (their mean, the pixel's own left out), so that no width follows its own samples.
+    pub reflector_radius: usize,
+    /// The widest screen kernel (standard deviation in pixels) at `reference_spp`, narrowing
+    /// with the samples as mu grows: the AAF widths ask for wide kernels on smooth surfaces
+    /// that no number of samples would narrow (its bandlimit, Mehta 2013 Eq. 15, is a lower
+    /// bound); this cap is what makes every filter narrow as the samples grow (consistency).
+    pub max_sigma_px: f64,
+    /// The gather's radius cap in pixels (the kernel is cut there at the first frames).
+    pub max_radius: usize,
+    /// Tokuyoshi's Eq. 12 power beta.
+    pub beta: f64,
+    /// Tokuyoshi's Eq. 3 variance relative to the centre's depth squared.
+    pub sigma_z2_relative: f64,
+    /// Gaussian-profile lights: r(x) (an 8 x 8 quadrature each) on at most this many samples per
+    /// pixel, or a quarter of the pixel's samples if that is more. Uniform lights' r(x) is
+    /// closed-form and computed on every sample.
+    pub quadrature_spp: u32,
+}
+
+impl Default for AutoOptions {
+    fn default() -> Self {
+        let env = |k: &str, d: f64| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
+        AutoOptions {
+            reference_spp: env("WA_NREF", 16.0),
+            refine_exponent: 1.0 / 6.0,
+            shadow_width_scale: env("WA_SH", 1.0),
+            indirect_width_scale: env("WA_IND", 1.0),
+            analysis_spp: 8,
+            reflector_radius: 3,
+            max_sigma_px: env("WA_S", 3.0),
+            max_radius: env("WA_R", 10.0) as usize,
+            beta: env("WA_BETA", 20.0),
+            sigma_z2_relative: env("WA_Z", 0.01),
+            quadrature_spp: 16,
+        }
+    }
+}
+
+impl AutoOptions {
+    /// mu at `spp` samples per pixel for a part whose operating point is `mu0`.
+    pub fn mu(&self, mu0: f64, spp: f64) -> f64 {
+        mu0 * self.growth(spp)
+    }
+
+    /// (spp / reference_spp)^refine_exponent: how far mu has grown, and the cap narrowed.
+    fn growth(&self, spp: f64) -> f64 {
+        (spp.max(1.0) / self.reference_spp.max(1e-9)).powf(self.refine_exponent)
+    }
+
+    /// The widest screen kernel at `spp` samples per pixel (pixels).
+    pub fn max_sigma(&self, spp: f64) -> f64 {
+        self.max_sigma_px / self.growth(spp)
+    }
+}

@@ -1,0 +1,263 @@
+//! One camera sample of `auto`: one jittered camera path, split at its first hit into the parts
+//! the frame filters apart (methods.md §5.1).
+use crate::methods::aaf_indirect::{incident, ComponentSums};
+use crate::methods::aaf_shadows::{occluder_slopes, unshadowed};
+use crate::pipeline::job::RenderJob;
+use crate::render::frame_basis::{cosine_hemisphere, to_world};
+use crate::render::integrator::emitted;
+use crate::render::light::{EmissionProfile, Light, RectLight};
+use crate::render::material::Material;
+use crate::render::sampler::PixelSampler;
+use crate::render::scene::{Scene, Surface};
+use glam::Vec3;
+
+/// A pixel's running sums of everything but the rectangular lights' diffuse direct light.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PixelSums {
+    /// Camera samples drawn: every part's divisor and the next sample index.
+    pub taken: u32,
+    /// Light no filter touches: emission, point lights, the glossy part of rect lights.
+    pub rest: [f64; 3],
+    /// Indirect light under the cosine lobe (D) and under the glossy lobe (S), untextured.
+    pub diffuse: ComponentSums,
+    pub glossy: ComponentSums,
+    /// Nearest and farthest reflector hit by the analysis samples' bounce rays.
+    pub z_min: f32,
+    pub z_max: f32,
+}
+
+impl Default for PixelSums {
+    fn default() -> Self {
+        PixelSums {
+            taken: 0,
+            rest: [0.0; 3],
+            diffuse: ComponentSums::default(),
+            glossy: ComponentSums::default(),
+            z_min: f32::INFINITY,
+            z_max: 0.0,
+        }
+    }
+}
+
+/// A pixel's sums for one rectangular light: the soft-shadow paper's Eq. 1 split
+/// h = r(x) * visibility, with r exact and the visibility A / B (`aaf_shadows`).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct LightSums {
+    /// Sums of u V and of u, u the diffuse integrand of the light sample.
+    pub a: [f64; 3],
+    pub b: [f64; 3],
+    /// Sum of the exact unshadowed diffuse light r over the `r_n` samples that computed it.
+    pub r: [f64; 3],
+    pub r_n: u32,
+    /// Extreme slopes of the analysis samples' occluded shadow rays.
+    pub s1: f64,
+    pub s2: f64,
+    pub occluded: bool,
+}
+
+impl Default for LightSums {
+    fn default() -> Self {
+        LightSums { a: [0.0; 3], b: [0.0; 3], r: [0.0; 3], r_n: 0, s1: 0.0, s2: f64::INFINITY, occluded: false }
+    }
+}
+
+/// What every sample of a render shares.
+pub(super) struct Sampling<'a> {
+    pub scene: &'a Scene,
+    pub job: &'a RenderJob,
+    /// Per scene light, its index among the rectangular lights' sums (None: a point light).
+    pub slot: &'a [Option<usize>],
+    /// Samples with a lower index feed the analysis (slopes, reflector distances).
+    pub analysis_spp: u32,
+    /// See `AutoOptions::quadrature_spp`.
+    pub quadrature_spp: u32,
+}
+
+impl Sampling<'_> {
+    /// Traces sample `px.taken` of pixel (x, y) into the sums. Returns (rays, dropped).
+    pub fn run(&self, x: usize, y: usize, seed: u64, px: &mut PixelSums, lights: &mut [LightSums]) -> (u64, u64) {
+        let (scene, job) = (self.scene, self.job);
+        let index = px.taken;
+        px.taken += 1;
+        let mut sampler = PixelSampler::new(seed, (y * job.width() as usize + x) as u32, index);
+        let j = sampler.next_2d();
+        let j = if job.pixel_centers { [0.5, 0.5] } else { j };
+        let dir = job.view.direction(x as f32 + j[0], y as f32 + j[1]);
+        let indirect = job.bounces > 0;
+        let Some(hit) = scene.intersect(job.view.position, dir, 0.0) else {
+            // r's mean counts the samples that see nothing (or a light, or a black surface)
+            // as zeros: the pixel's share of the surface the light falls on.
+            for (light, slot) in scene.lights.iter().zip(self.slot) {
+                if let (Light::Rect(rect), Some(l)) = (light, slot) {
+                    lights[*l].r_n += u32::from(self.r_due(rect, &lights[*l], index));
+                }
+            }
+            if indirect {
+                px.diffuse.add(Vec3::ZERO, None);
+                px.glossy.add(Vec3::ZERO, None);
+            }
+            return (1, 0);
+        };
+        let analysis = index < self.analysis_spp;
+        let wo = -dir;
+        let brdf = scene.materials[hit.material as usize].brdf(hit.uv);
+        let emitter = matches!(scene.materials[hit.material as usize], Material::Emitter { .. });
+        let front = hit.ns.dot(wo) > 0.0;
+        let (mut rays, mut dropped) = (1u64, 0u64);
+        let mut rest = emitted(scene, &hit, wo);
+        // Every light draws its dimension pair, used or not, so that the streams stay aligned.
+        for (light, slot) in scene.lights.iter().zip(self.slot) {
+            let u = sampler.next_2d();
+            if let (Light::Rect(rect), Some(l)) = (light, slot) {
+                let s = &mut lights[*l];
+                if self.r_due(rect, s, index) {
+                    s.r_n += 1;
+                    let r = unshadowed(rect, &hit, wo, brdf.kd);
+                    if !emitter && r.is_finite() {
+                        for c in 0..3 {
+                            s.r[c] += r[c];
+                        }
+                    }
+                }
+            }
+            if emitter || brdf.is_black() {
+                continue;
+            }
+            match (light, slot) {
+                (Light::Rect(rect), Some(l)) => {
+                    let s = &mut lights[*l];
+                    let Some(ls) = rect.sample(hit.p, u) else { continue };
+                    let cos = hit.ns.dot(ls.wi);
+                    if cos <= 0.0 || hit.ng.dot(ls.wi) <= 0.0 {
+                        continue;
+                    }
+                    let kd = if front { brdf.kd * std::f32::consts::FRAC_1_PI } else { Vec3::ZERO };
+                    let u = kd * ls.weight * cos;
+                    let g = brdf.eval_specular(wo, ls.wi, hit.ns) * ls.weight * cos;
+                    if !u.is_finite() || !g.is_finite() || (u == Vec3::ZERO && g == Vec3::ZERO) {
+                        continue;
+                    }
+                    rays += 1;
+                    let visible = if analysis {
+                        match occluder_slopes(scene, hit.p, hit.ng, ls.point).0 {
+                            Some((s1, s2)) => {
+                                s.occluded = true;
+                                s.s1 = s.s1.max(s1);
+                                s.s2 = s.s2.min(s2);
+                                false
+                            }
+                            None => true,
+                        }
+                    } else {
+                        !scene.occluded(hit.p, hit.ng, ls.point)
+                    };
+                    for c in 0..3 {
+                        s.b[c] += u[c] as f64;
+                        if visible {
+                            s.a[c] += u[c] as f64;
+                        }
+                    }
+                    if visible {
+                        rest += g;
+                    }
+                }
+                (Light::Rect(_), None) => {}
+                (Light::Point(p), _) => {
+                    let Some(ls) = p.sample(hit.p) else { continue };
+                    let cos = hit.ns.dot(ls.wi);
+                    if cos <= 0.0 || hit.ng.dot(ls.wi) <= 0.0 {
+                        continue;
+                    }
+                    let f = brdf.eval(wo, ls.wi, hit.ns);
+                    if f == Vec3::ZERO {
+                        continue;
+                    }
+                    rays += 1;
+                    if !scene.occluded(hit.p, hit.ng, ls.point) {
+                        rest += f * ls.weight * cos;
+                    }
+                }
+            }
+        }
+        if rest.is_finite() {
+            for c in 0..3 {
+                px.rest[c] += rest[c] as f64;
+            }
+        } else {
+            dropped += 1;
+        }
+        if indirect {
+            let (r, d) = self.indirect(&hit, wo, front, analysis, &mut sampler, px);
+            rays += r;
+            dropped += d;
+        }
+        (rays, dropped)
+    }
+
+    /// Whether sample `index` computes r(x) of `rect`: always for uniform lights, whose r is
+    /// closed-form; for Gaussian lights (a quadrature each) only while r has fewer than
+    /// `quadrature_spp` samples or a quarter of the pixel's, so that r still converges.
+    fn r_due(&self, rect: &RectLight, s: &LightSums, index: u32) -> bool {
+        rect.profile != EmissionProfile::Gaussian || s.r_n < self.quadrature_spp.max(index / 4)
+    }
+
+    /// The indirect light at the first hit, diffuse and glossy apart, as `aaf_indirect` samples
+    /// it: one cosine ray for kd, one lobe-sampled ray for ks.
+    fn indirect(
+        &self,
+        hit: &Surface,
+        wo: Vec3,
+        front: bool,
+        analysis: bool,
+        sampler: &mut PixelSampler,
+        px: &mut PixelSums,
+    ) -> (u64, u64) {
+        let scene = self.scene;
+        let bounces = self.job.bounces;
+        let (u_d, u_s) = (sampler.next_2d(), sampler.next_2d());
+        let brdf = scene.materials[hit.material as usize].brdf(hit.uv);
+        let (mut rays, mut dropped) = (0u64, 0u64);
+        let mut keep = |v: Vec3| {
+            if v.is_finite() {
+                Some(v)
+            } else {
+                dropped += 1;
+                None
+            }
+        };
+        let mut diffuse = None;
+        if brdf.kd != Vec3::ZERO && front {
+            let (l, z, r) = incident(scene, bounces, hit, to_world(hit.ns, cosine_hemisphere(u_d)), sampler);
+            rays += r;
+            if analysis {
+                record_reflector(px, z);
+            }
+            diffuse = keep(l);
+        }
+        let mut glossy = None;
+        if brdf.ks != Vec3::ZERO && front {
+            let l = match brdf.sample_specular(wo, hit.ns, u_s) {
+                Some((wi, weight)) => {
+                    let (l, z, r) = incident(scene, bounces, hit, wi, sampler);
+                    rays += r;
+                    if analysis && brdf.kd == Vec3::ZERO {
+                        record_reflector(px, z);
+                    }
+                    l * weight
+                }
+                None => Vec3::ZERO,
+            };
+            glossy = keep(l);
+        }
+        px.diffuse.add(brdf.kd, diffuse);
+        px.glossy.add(brdf.ks, glossy);
+        (rays, dropped)
+    }
+}
+
+fn record_reflector(px: &mut PixelSums, z: Option<f32>) {
+    if let Some(t) = z {
+        px.z_min = px.z_min.min(t);
+        px.z_max = px.z_max.max(t);
+    }
+}

@@ -1,0 +1,214 @@
+//! `auto` through the pipeline, on small scenes with fixed seeds: the parts it reports, its
+//! energy against plain Monte Carlo, the narrowing of every filter, the exact unshadowed light,
+//! the gain of the filter, and independence from the thread count.
+use super::component_names;
+use crate::methods::tests::{builtin, frames};
+use crate::pipeline::frame::Frame;
+use crate::pipeline::job::{CancelToken, Halt, Integrand, Method, RenderJob};
+use crate::pipeline::progressive::render;
+use crate::render::light::{polygon_irradiance, EmissionProfile, RectLight};
+use crate::render::material::Material;
+use crate::render::scene::{CameraDesc, Scene, SceneBuilder};
+use crate::render::texture::Texture;
+use glam::Vec3;
+use std::sync::Arc;
+
+/// Every frame of a job of `passes` passes (the first, 1 spp, included).
+fn all_frames(j: &RenderJob) -> Vec<Frame> {
+    let mut out = Vec::new();
+    render(j, &CancelToken::new(), &mut |f| {
+        out.push(f.clone());
+        true
+    })
+    .expect("render");
+    out
+}
+
+fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64, bounces: u32) -> RenderJob {
+    let mut j = RenderJob::new(scene, method, Halt::passes(passes));
+    (j.seed, j.bounces) = (seed, bounces);
+    j
+}
+
+fn reference(scene: Arc<Scene>, bounces: u32, spp: f64) -> Frame {
+    let mut j = job(scene, Method::Uniform, 30, 99, bounces);
+    j.halt.max_mean_spp = spp;
+    frames(&j).pop().unwrap()
+}
+
+fn mean(img: &[[f32; 3]]) -> f64 {
+    img.iter().flatten().map(|&v| v as f64).sum::<f64>() / (3 * img.len()) as f64
+}
+
+/// Mean of the positive entries of a width map.
+fn mean_width(w: &[f32]) -> f64 {
+    let pos: Vec<f64> = w.iter().filter(|&&x| x > 0.0).map(|&x| x as f64).collect();
+    pos.iter().sum::<f64>() / pos.len().max(1) as f64
+}
+
+/// The area-lit Cornell box (soft shadows, diffuse indirect light) and the glossy one under a
+/// point light (diffuse and glossy indirect light): the parts the registry announces, the
+/// energy of plain path tracing, every part's filter narrowing pass by pass, and the error
+/// against a converged image falling pass by pass.
+#[test]
+fn the_stream_keeps_the_energy_narrows_and_converges() {
+    for (name, parts) in [("cornell", &["shadow", "diffuse"][..]), ("cornell-glossy", &["diffuse", "glossy"][..])] {
+        let s = builtin(name, 32, 32);
+        let reference = reference(s.clone(), 1, 2048.0);
+        let j = job(s.clone(), Method::Auto, 8, 1, 1);
+        assert_eq!(component_names(&j), parts, "{name}");
+        let f = all_frames(&j);
+        assert_eq!(f.len(), 8);
+        for (k, fr) in f.iter().enumerate() {
+            let names: Vec<&str> = fr.components.iter().map(|c| c.name.as_str()).collect();
+            assert_eq!(names, parts, "{name}");
+            assert!(fr.spp.iter().all(|&n| n == (1u32 << k) as f32), "{name}: pass {k} has 2^{k} spp everywhere");
+            assert!(fr.color.iter().flatten().all(|v| v.is_finite() && *v >= 0.0), "{name}");
+        }
+        let last = f.last().unwrap();
+        let (m, r) = (mean(&last.color), mean(&reference.color));
+        assert!((m / r - 1.0).abs() < 0.02, "{name}: mean {m} vs {r}");
+        // Once the analysis samples are in (8 spp, pass 3), every filtered part narrows by
+        // 2^(-1/6) per doubling of the samples, its own width or the cap.
+        for (c, part) in parts.iter().enumerate() {
+            let widths: Vec<f64> =
+                f.iter().map(|fr| mean_width(fr.components[c].filter_width.as_ref().unwrap())).collect();
+            assert!(widths.iter().all(|&w| w > 0.0), "{name} {}: widths {widths:?}", part);
+            assert!(widths[7] < widths[3], "{name} {}: {widths:?}", part);
+            for k in 4..8 {
+                let (a, b) = (&f[k - 1].components[c], &f[k].components[c]);
+                let pairs = a.filter_width.as_ref().unwrap().iter().zip(b.filter_width.as_ref().unwrap());
+                let mut n = 0;
+                for (&wa, &wb) in pairs.filter(|(wa, _)| **wa > 0.0) {
+                    assert!((wb / wa - 0.5f32.powf(1.0 / 6.0)).abs() < 1e-4, "{name} pass {k}: {wa} -> {wb}");
+                    n += 1;
+                }
+                assert!(n > 20, "{name} {} pass {k}: {n} pixels narrowed", part);
+            }
+        }
+        // Consistency: the error falls pass by pass (to the reference's own noise).
+        let e: Vec<f64> = f.iter().map(|fr| rmse_off_lights(&fr.color, &reference)).collect();
+        assert!(e.windows(2).all(|p| p[1] < 1.05 * p[0]), "{name}: {e:?}");
+        assert!(e[7] < 0.2 * e[0], "{name}: {e:?}");
+    }
+}
+
+/// RMSE without the pixels that see a light's surface (whose error is the camera jitter's
+/// coverage of its edge, which no filter touches): those above 1 in the reference and their
+/// 8 neighbours.
+fn rmse_off_lights(a: &[[f32; 3]], reference: &Frame) -> f64 {
+    let (w, h) = (reference.width as usize, reference.height as usize);
+    let bright = |x: usize, y: usize| reference.color[y * w + x].iter().any(|&v| v > 1.0);
+    let near_light = |x: usize, y: usize| {
+        (y.saturating_sub(1)..(y + 2).min(h)).any(|ny| (x.saturating_sub(1)..(x + 2).min(w)).any(|nx| bright(nx, ny)))
+    };
+    let (mut se, mut n) = (0.0, 0usize);
+    for y in 0..h {
+        for x in 0..w {
+            if !near_light(x, y) {
+                let (p, q) = (a[y * w + x], reference.color[y * w + x]);
+                se += (0..3).map(|c| (p[c] as f64 - q[c] as f64).powi(2)).sum::<f64>();
+                n += 3;
+            }
+        }
+    }
+    (se / n as f64).sqrt()
+}
+
+/// The filter lowers the error: at equal samples (16 spp) the filtered frame is closer to the
+/// converged image than its own unfiltered estimate, on the area-lit box and on the glossy one,
+/// by at least 2x in RMSE.
+#[test]
+fn the_filter_lowers_the_error_at_equal_samples() {
+    for name in ["cornell", "cornell-glossy"] {
+        let s = builtin(name, 48, 48);
+        let reference = reference(s.clone(), 1, 4096.0);
+        let f = all_frames(&job(s, Method::Auto, 5, 3, 1));
+        let last = f.last().unwrap();
+        let filtered = rmse_off_lights(&last.color, &reference);
+        let raw = rmse_off_lights(last.unfiltered_color(), &reference);
+        assert!(filtered < raw / 2.0, "{name}: filtered {filtered} vs unfiltered {raw}");
+    }
+}
+
+/// A Lambertian floor (albedo 0.5) under a square uniform light (out of view), nothing else: no occluder, so
+/// the visibility is exactly 1 and the direct light is r(x), the closed form (Mehta 2012
+/// Eq. 1), at one sample per pixel, without noise. Pixel centres make each pixel one point.
+#[test]
+fn without_occluders_the_direct_light_is_exact_at_one_sample() {
+    let mut b = SceneBuilder::new(CameraDesc {
+        position: Vec3::new(0.0, 3.0, 0.0),
+        look_at: Vec3::ZERO,
+        up: Vec3::Z,
+        vertical_fov_deg: 60.0,
+        width: 12,
+        height: 12,
+    });
+    let m = b.add_material(Material::Lambertian { albedo: Texture::Constant(Vec3::splat(0.5)) });
+    let o = b.new_object();
+    let (c, u, v) = (Vec3::new(-4.0, 0.0, -4.0), Vec3::new(8.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 8.0));
+    b.geometry.push([c, c + u, c + u + v], None, None, m, o);
+    b.geometry.push([c, c + u + v, c + v], None, None, m, o);
+    let light = RectLight::new(
+        Vec3::new(2.0, 1.0, -0.5),
+        Vec3::new(1.0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::splat(3.0),
+        EmissionProfile::Uniform,
+    );
+    b.add_rect_light(light.clone());
+    let scene = Arc::new(b.build());
+    let mut j = job(scene.clone(), Method::Auto, 1, 5, 0);
+    j.pixel_centers = true;
+    let f = all_frames(&j).pop().unwrap();
+    let quad = |l: &RectLight| [l.corner, l.corner + l.edge_u, l.corner + l.edge_u + l.edge_v, l.corner + l.edge_v];
+    let crate::render::light::Light::Rect(compiled) = &scene.lights[0] else { unreachable!() };
+    let mut lit = 0;
+    for y in 0..12u32 {
+        for x in 0..12u32 {
+            let dir = j.view.direction(x as f32 + 0.5, y as f32 + 0.5);
+            let hit = scene.intersect(j.view.position, dir, 0.0).expect("the floor fills the view");
+            let exact = 0.5 / std::f64::consts::PI * 3.0 * polygon_irradiance(hit.p, hit.ns, &quad(compiled));
+            let got = f.color[(y * 12 + x) as usize][0] as f64;
+            assert!((got - exact).abs() <= 1e-5 * exact.max(1e-3), "pixel ({x}, {y}): {got} vs {exact}");
+            lit += usize::from(exact > 1e-3);
+        }
+    }
+    assert!(lit > 100, "the light reaches most of the view ({lit})");
+}
+
+/// Every pixel's value depends only on the seed, the pixel and the sample index, and the
+/// filters only on the image: a pool of 1 and of 2 threads give the same frames, bit for bit.
+#[test]
+fn frames_do_not_depend_on_the_thread_count() {
+    let s = builtin("cornell", 24, 24);
+    let j = job(s, Method::Auto, 4, 7, 1);
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| all_frames(&j)).into_iter().map(|f| (f.color, f.spp, f.filter_width)).collect::<Vec<_>>()
+    };
+    assert_eq!(run(1), run(2));
+}
+
+/// Ambient occlusion is the indirect paper's extension: `auto` renders it as `aaf` does.
+#[test]
+fn ambient_occlusion_renders_as_aaf() {
+    let s = builtin("cornell", 16, 16);
+    let mut a = job(s.clone(), Method::Auto, 3, 2, 0);
+    a.integrand = Integrand::AmbientOcclusion { max_distance: f32::INFINITY };
+    let mut b = a.clone();
+    b.method = Method::Aaf;
+    assert_eq!(component_names(&a), ["diffuse"]);
+    let (fa, fb) = (all_frames(&a), all_frames(&b));
+    assert_eq!(fa.last().unwrap().color, fb.last().unwrap().color);
+}
+
+#[test]
+fn mu_grows_as_the_sixth_root_of_the_samples() {
+    let o = super::AutoOptions::default();
+    assert!((o.mu(2.0, 16.0) - 2.0).abs() < 1e-12);
+    assert!((o.mu(2.0, 16.0 * 64.0) - 4.0).abs() < 1e-12);
+    assert!((o.mu(0.9, 1.0) - 0.9 * 16f64.powf(-1.0 / 6.0)).abs() < 1e-12);
+    // No samples count as one.
+    assert_eq!(o.mu(1.0, 0.0), o.mu(1.0, 1.0));
+}

@@ -1,0 +1,134 @@
+//! `auto`'s per-pixel filter widths (methods.md §5.2): the AAF papers' widths at the mu the
+//! pixel's samples reach, in pixels.
+use super::options::AutoOptions;
+use super::sample::PixelSums;
+use crate::methods::aaf_indirect::glossy_model;
+use crate::methods::aaf_indirect::params::{self as indirect, omega_h_glossy, Reflectors};
+use crate::methods::aaf_shadows::params::{self as shadows, PixelGeometry};
+use crate::methods::aaf_shadows::ShadowLight;
+use crate::pipeline::strategy::PassContext;
+use crate::render::gbuffer::GBuffer;
+use rayon::prelude::*;
+use std::sync::Arc;
+
+pub(super) struct Widths {
+    gbuffer: Arc<GBuffer>,
+    /// Projected pixel sizes as each paper's options define them (foreshortening or not).
+    d_shadow: Vec<f64>,
+    d_indirect: Vec<f64>,
+    /// Per pixel, the mean nearest and farthest reflector of its neighbourhood's analysis
+    /// samples (the pixel itself left out); None where none was seen.
+    reflectors: Vec<Option<(f32, f32)>>,
+}
+
+impl Widths {
+    pub fn new(ctx: &PassContext, g: &Arc<GBuffer>) -> Self {
+        let camera = ctx.view.position;
+        Widths {
+            gbuffer: Arc::clone(g),
+            d_shadow: g.pixel_sizes(camera, ctx.job.aaf.foreshortening),
+            d_indirect: g.pixel_sizes(camera, ctx.job.indirect.foreshortening),
+            reflectors: vec![None; g.pixels.len()],
+        }
+    }
+
+    /// Recomputes each pixel's reflector distances from its neighbours on the same object.
+    pub fn update_reflectors(&mut self, ctx: &PassContext, sums: &[PixelSums], opts: &AutoOptions) {
+        let g = &self.gbuffer;
+        let (w, h) = (g.width as usize, g.height as usize);
+        let r = opts.reflector_radius;
+        let _ = ctx;
+        self.reflectors = (0..w * h)
+            .into_par_iter()
+            .map(|p| {
+                let c = &g.pixels[p];
+                if !c.is_valid() {
+                    return None;
+                }
+                let (x, y) = (p % w, p / w);
+                let (mut count, mut z_min, mut z_max) = (0u32, 0.0f64, 0.0f64);
+                for ny in y.saturating_sub(r)..(y + r + 1).min(h) {
+                    for nx in x.saturating_sub(r)..(x + r + 1).min(w) {
+                        let q = ny * w + nx;
+                        let s = &sums[q];
+                        if q == p || g.pixels[q].object != c.object || !s.z_min.is_finite() {
+                            continue;
+                        }
+                        count += 1;
+                        z_min += s.z_min as f64;
+                        z_max += s.z_max as f64;
+                    }
+                }
+                (count > 0).then(|| ((z_min / count as f64) as f32, (z_max / count as f64) as f32))
+            })
+            .collect();
+    }
+
+    /// The screen width (standard deviation, pixels) of a light's visibility at each pixel, from
+    /// the `slopes` each pixel is filtered with:
+    /// Mehta 2012 Eq. 13 at the mu of the pixel's samples; 0 where no slopes were found (no
+    /// occluder nearby: nothing to filter).
+    pub fn shadow(
+        &self,
+        ctx: &PassContext,
+        light: &ShadowLight,
+        slopes: impl Fn(usize) -> Option<(f64, f64)> + Sync,
+        sums: &[PixelSums],
+        opts: &AutoOptions,
+    ) -> Vec<f32> {
+        let aaf = &ctx.job.aaf;
+        (0..self.d_shadow.len())
+            .into_par_iter()
+            .map(|p| {
+                let d = self.d_shadow[p];
+                let Some((s1, s2)) = slopes(p) else { return 0.0 };
+                if !(d > 0.0) {
+                    return 0.0;
+                }
+                let mu = opts.mu(aaf.mu0 * light.mu_scale, sums[p].taken as f64);
+                let geometry = PixelGeometry { s1, s2, sigma: light.sigma, d };
+                let beta = shadows::filter_width(&geometry, &aaf.constants, mu) * opts.shadow_width_scale;
+                finite_px(beta / d, opts.max_sigma(sums[p].taken as f64))
+            })
+            .collect()
+    }
+
+    /// The screen width of the diffuse or glossy indirect light at each pixel: Mehta 2013
+    /// Eqs. 15-16 at the mu of the pixel's samples; 0 where no reflector was seen.
+    pub fn indirect(&self, ctx: &PassContext, glossy: bool, sums: &[PixelSums], opts: &AutoOptions) -> Vec<f32> {
+        let ind = &ctx.job.indirect;
+        let c = &ind.constants;
+        let z_floor = c.z_min_fraction * ctx.scene.max_extent() as f64;
+        (0..self.d_indirect.len())
+            .into_par_iter()
+            .map(|p| {
+                let (d, g) = (self.d_indirect[p], &self.gbuffer.pixels[p]);
+                let Some((z_min, z_max)) = self.reflectors[p] else { return 0.0 };
+                if !(d > 0.0) {
+                    return 0.0;
+                }
+                let omega_h = if glossy {
+                    omega_h_glossy(glossy_model(ctx.scene, g.material), g.exponent as f64, c)
+                } else {
+                    c.omega_h_diffuse
+                };
+                let z_min = (z_min as f64).max(z_floor);
+                let r = Reflectors { z_min, z_max: (z_max as f64).max(z_min), omega_h, d };
+                let n = if glossy { sums[p].glossy.n } else { sums[p].diffuse.n };
+                let mu = opts.mu(ind.mu0, n as f64);
+                let beta = indirect::filter_width(&r, c, mu) * ind.kernel_scale * opts.indirect_width_scale;
+                finite_px(beta / d, opts.max_sigma(n as f64))
+            })
+            .collect()
+    }
+}
+
+/// A width in pixels as f32, at most `max` (`AutoOptions::max_sigma`); 0 for anything not
+/// finite and positive.
+fn finite_px(w: f64, max: f64) -> f32 {
+    if w.is_finite() && w > 0.0 {
+        w.min(max) as f32
+    } else {
+        0.0
+    }
+}
