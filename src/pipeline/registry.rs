@@ -101,7 +101,7 @@ pub const METHODS: &[MethodSpec] = &[
 
 /// The method the product recommends: the one the README's first command and a request that
 /// names no method render with.
-pub const DEFAULT_METHOD: Method = Method::Aaf;
+pub const DEFAULT_METHOD: Method = Method::Auto;
 
 impl Method {
     pub const ALL: [Method; 7] = [

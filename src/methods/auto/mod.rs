@@ -3,7 +3,7 @@
 //! Mehta 2013 for indirect light) with Tokuyoshi 2015's lobe-aware cross-bilateral weights in
 //! place of their normal threshold, every part of the light filtered apart and untextured.
 //!
-//! - **Samples.** The same samples everywhere, doubling per pass as in `uniform` (the AAF
+//! - **Samples.** The same samples everywhere, four times as many per pass (the AAF
 //!   papers' counts ask for many more than a preview budget has: here they are a ceiling the
 //!   widths respect, not a floor). One jittered camera path per sample, split at its first hit
 //!   (`sample.rs`): each rectangular light's diffuse direct light as r(x) times visibility
@@ -39,7 +39,6 @@ use super::lobe_aware::lobe;
 use super::lobe_aware::packed::{gather, PackedGuide, PackedOptions};
 use super::mode::FilterMode;
 use super::parts;
-use super::uniform::Uniform;
 use crate::pipeline::film::{mean, Tally};
 use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
@@ -182,7 +181,7 @@ impl AutoStrategy {
             job: ctx.job,
             slot: &self.slot,
             analysis_spp: self.opts.analysis_spp,
-            quadrature_spp: self.opts.quadrature_spp,
+            r_block: self.opts.r_block,
         };
         let seed = self.seed;
         let results: Vec<Tally> = self
@@ -338,13 +337,22 @@ impl AutoStrategy {
     }
 }
 
+/// Samples per pixel after pass `pass`: `initial` in pass 0, four times as many per pass after
+/// (1, 4, 16, 64, ...), at most `max_mean_spp` (0: no cap). Every frame costs a filter, so the
+/// passes grow faster than `uniform`'s doubling: fewer frames at a budget, the same samples.
+pub fn pass_target(initial: u32, pass: u32, max_mean_spp: f64) -> u32 {
+    let total = (initial.max(1) as u64).saturating_mul(1u64 << (2 * pass.min(20)));
+    let cap = if max_mean_spp > 0.0 { max_mean_spp.ceil().min(u32::MAX as f64) as u64 } else { u64::MAX };
+    total.min(cap).min(u32::MAX as u64) as u32
+}
+
 impl Strategy for AutoStrategy {
     fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError> {
         if ctx.pass == 0 {
             self.setup(ctx);
         }
         let before = self.target;
-        self.target = Uniform::pass_spp(ctx.job.initial_spp, ctx.pass, 0, ctx.job.halt.max_mean_spp).max(before);
+        self.target = pass_target(ctx.job.initial_spp, ctx.pass, ctx.job.halt.max_mean_spp).max(before);
         let traced = Instant::now();
         let complete = self.trace(ctx, self.target)?;
         let t = Instant::now();

@@ -30,27 +30,25 @@ pub struct AutoOptions {
     pub beta: f64,
     /// Tokuyoshi's Eq. 3 variance relative to the centre's depth squared.
     pub sigma_z2_relative: f64,
-    /// Gaussian-profile lights: r(x) (an 8 x 8 quadrature each) on at most this many samples per
-    /// pixel, or a quarter of the pixel's samples if that is more. Uniform lights' r(x) is
-    /// closed-form and computed on every sample.
-    pub quadrature_spp: u32,
+    /// r(x), the exact unshadowed light, is computed on the first this many samples of a pixel,
+    /// then on one block of as many in four (methods.md §5.1).
+    pub r_block: u32,
 }
 
 impl Default for AutoOptions {
     fn default() -> Self {
-        let env = |k: &str, d: f64| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
         AutoOptions {
-            reference_spp: env("WA_NREF", 16.0),
+            reference_spp: 16.0,
             refine_exponent: 1.0 / 6.0,
-            shadow_width_scale: env("WA_SH", 1.0),
-            indirect_width_scale: env("WA_IND", 1.0),
+            shadow_width_scale: 1.0,
+            indirect_width_scale: 1.0,
             analysis_spp: 8,
             reflector_radius: 3,
-            max_sigma_px: env("WA_S", 3.0),
-            max_radius: env("WA_R", 10.0) as usize,
-            beta: env("WA_BETA", 20.0),
-            sigma_z2_relative: env("WA_Z", 0.01),
-            quadrature_spp: 16,
+            max_sigma_px: 4.0,
+            max_radius: 12,
+            beta: 20.0,
+            sigma_z2_relative: 0.01,
+            r_block: 16,
         }
     }
 }

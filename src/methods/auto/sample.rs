@@ -5,7 +5,7 @@ use crate::methods::aaf_shadows::{occluder_slopes, unshadowed};
 use crate::pipeline::job::RenderJob;
 use crate::render::frame_basis::{cosine_hemisphere, to_world};
 use crate::render::integrator::emitted;
-use crate::render::light::{EmissionProfile, Light, RectLight};
+use crate::render::light::Light;
 use crate::render::material::Material;
 use crate::render::sampler::PixelSampler;
 use crate::render::scene::{Scene, Surface};
@@ -69,8 +69,8 @@ pub(super) struct Sampling<'a> {
     pub slot: &'a [Option<usize>],
     /// Samples with a lower index feed the analysis (slopes, reflector distances).
     pub analysis_spp: u32,
-    /// See `AutoOptions::quadrature_spp`.
-    pub quadrature_spp: u32,
+    /// See `r_due`.
+    pub r_block: u32,
 }
 
 impl Sampling<'_> {
@@ -88,8 +88,8 @@ impl Sampling<'_> {
             // r's mean counts the samples that see nothing (or a light, or a black surface)
             // as zeros: the pixel's share of the surface the light falls on.
             for (light, slot) in scene.lights.iter().zip(self.slot) {
-                if let (Light::Rect(rect), Some(l)) = (light, slot) {
-                    lights[*l].r_n += u32::from(self.r_due(rect, &lights[*l], index));
+                if let (Light::Rect(_), Some(l)) = (light, slot) {
+                    lights[*l].r_n += u32::from(self.r_due(index));
                 }
             }
             if indirect {
@@ -110,7 +110,7 @@ impl Sampling<'_> {
             let u = sampler.next_2d();
             if let (Light::Rect(rect), Some(l)) = (light, slot) {
                 let s = &mut lights[*l];
-                if self.r_due(rect, s, index) {
+                if self.r_due(index) {
                     s.r_n += 1;
                     let r = unshadowed(rect, &hit, wo, brdf.kd);
                     if !emitter && r.is_finite() {
@@ -194,11 +194,16 @@ impl Sampling<'_> {
         (rays, dropped)
     }
 
-    /// Whether sample `index` computes r(x) of `rect`: always for uniform lights, whose r is
-    /// closed-form; for Gaussian lights (a quadrature each) only while r has fewer than
-    /// `quadrature_spp` samples or a quarter of the pixel's, so that r still converges.
-    fn r_due(&self, rect: &RectLight, s: &LightSums, index: u32) -> bool {
-        rect.profile != EmissionProfile::Gaussian || s.r_n < self.quadrature_spp.max(index / 4)
+    /// Whether sample `index` computes r(x): every sample of the first block of `r_block`
+    /// (16), then one block in four (samples 64-79, 128-143, ...). r is exact at each sample
+    /// point, so more of them only refine its average over the pixel (antialiasing), and each
+    /// costs as much as a shadow ray (an 8 x 8 quadrature for Gaussian lights). Whole blocks of
+    /// consecutive indices keep the subset stratified (each is a net of the Sobol sequence; every
+    /// fourth single sample would crowd into one quarter of the pixel), and the count still grows
+    /// without bound.
+    fn r_due(&self, index: u32) -> bool {
+        let block = self.r_block.max(1);
+        index < block || (index / block) % 4 == 0
     }
 
     /// The indirect light at the first hit, diffuse and glossy apart, as `aaf_indirect` samples

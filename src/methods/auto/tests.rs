@@ -55,32 +55,32 @@ fn the_stream_keeps_the_energy_narrows_and_converges() {
     for (name, parts) in [("cornell", &["shadow", "diffuse"][..]), ("cornell-glossy", &["diffuse", "glossy"][..])] {
         let s = builtin(name, 32, 32);
         let reference = reference(s.clone(), 1, 2048.0);
-        let j = job(s.clone(), Method::Auto, 8, 1, 1);
+        let j = job(s.clone(), Method::Auto, 5, 1, 1);
         assert_eq!(component_names(&j), parts, "{name}");
         let f = all_frames(&j);
-        assert_eq!(f.len(), 8);
+        assert_eq!(f.len(), 5);
         for (k, fr) in f.iter().enumerate() {
             let names: Vec<&str> = fr.components.iter().map(|c| c.name.as_str()).collect();
             assert_eq!(names, parts, "{name}");
-            assert!(fr.spp.iter().all(|&n| n == (1u32 << k) as f32), "{name}: pass {k} has 2^{k} spp everywhere");
+            assert!(fr.spp.iter().all(|&n| n == (1u32 << (2 * k)) as f32), "{name}: pass {k} has 4^{k} spp everywhere");
             assert!(fr.color.iter().flatten().all(|v| v.is_finite() && *v >= 0.0), "{name}");
         }
         let last = f.last().unwrap();
         let (m, r) = (mean(&last.color), mean(&reference.color));
         assert!((m / r - 1.0).abs() < 0.02, "{name}: mean {m} vs {r}");
-        // Once the analysis samples are in (8 spp, pass 3), every filtered part narrows by
-        // 2^(-1/6) per doubling of the samples, its own width or the cap.
+        // Once the analysis samples are in (16 spp, pass 2), every filtered part narrows by
+        // 4^(-1/6) per pass (the samples grow fourfold), its own width or the cap.
         for (c, part) in parts.iter().enumerate() {
             let widths: Vec<f64> =
                 f.iter().map(|fr| mean_width(fr.components[c].filter_width.as_ref().unwrap())).collect();
             assert!(widths.iter().all(|&w| w > 0.0), "{name} {}: widths {widths:?}", part);
-            assert!(widths[7] < widths[3], "{name} {}: {widths:?}", part);
-            for k in 4..8 {
+            assert!(widths[4] < widths[2], "{name} {}: {widths:?}", part);
+            for k in 3..5 {
                 let (a, b) = (&f[k - 1].components[c], &f[k].components[c]);
                 let pairs = a.filter_width.as_ref().unwrap().iter().zip(b.filter_width.as_ref().unwrap());
                 let mut n = 0;
                 for (&wa, &wb) in pairs.filter(|(wa, _)| **wa > 0.0) {
-                    assert!((wb / wa - 0.5f32.powf(1.0 / 6.0)).abs() < 1e-4, "{name} pass {k}: {wa} -> {wb}");
+                    assert!((wb / wa - 0.25f32.powf(1.0 / 6.0)).abs() < 1e-4, "{name} pass {k}: {wa} -> {wb}");
                     n += 1;
                 }
                 assert!(n > 20, "{name} {} pass {k}: {n} pixels narrowed", part);
@@ -89,7 +89,7 @@ fn the_stream_keeps_the_energy_narrows_and_converges() {
         // Consistency: the error falls pass by pass (to the reference's own noise).
         let e: Vec<f64> = f.iter().map(|fr| rmse_off_lights(&fr.color, &reference)).collect();
         assert!(e.windows(2).all(|p| p[1] < 1.05 * p[0]), "{name}: {e:?}");
-        assert!(e[7] < 0.2 * e[0], "{name}: {e:?}");
+        assert!(e[4] < 0.2 * e[0], "{name}: {e:?}");
     }
 }
 
@@ -115,7 +115,7 @@ fn rmse_off_lights(a: &[[f32; 3]], reference: &Frame) -> f64 {
     (se / n as f64).sqrt()
 }
 
-/// The filter lowers the error: at equal samples (16 spp) the filtered frame is closer to the
+/// The filter lowers the error: at equal samples (16 spp, pass 2) the filtered frame is closer to the
 /// converged image than its own unfiltered estimate, on the area-lit box and on the glossy one,
 /// by at least 2x in RMSE.
 #[test]
@@ -123,7 +123,7 @@ fn the_filter_lowers_the_error_at_equal_samples() {
     for name in ["cornell", "cornell-glossy"] {
         let s = builtin(name, 48, 48);
         let reference = reference(s.clone(), 1, 4096.0);
-        let f = all_frames(&job(s, Method::Auto, 5, 3, 1));
+        let f = all_frames(&job(s, Method::Auto, 3, 3, 1));
         let last = f.last().unwrap();
         let filtered = rmse_off_lights(&last.color, &reference);
         let raw = rmse_off_lights(last.unfiltered_color(), &reference);
@@ -201,6 +201,14 @@ fn ambient_occlusion_renders_as_aaf() {
     assert_eq!(component_names(&a), ["diffuse"]);
     let (fa, fb) = (all_frames(&a), all_frames(&b));
     assert_eq!(fa.last().unwrap().color, fb.last().unwrap().color);
+}
+
+#[test]
+fn passes_quadruple_the_samples_up_to_the_cap() {
+    let totals: Vec<u32> = (0..7).map(|k| super::pass_target(1, k, 1000.0)).collect();
+    assert_eq!(totals, [1, 4, 16, 64, 256, 1000, 1000]);
+    assert_eq!(super::pass_target(2, 1, 0.0), 8);
+    assert_eq!(super::pass_target(1, 1000, 0.0), u32::MAX);
 }
 
 #[test]
