@@ -203,7 +203,7 @@ impl Sampling<'_> {
     /// without bound.
     fn r_due(&self, index: u32) -> bool {
         let block = self.r_block.max(1);
-        index < block || (index / block) % 4 == 0
+        index < block || (index / block).is_multiple_of(4)
     }
 
     /// The indirect light at the first hit, diffuse and glossy apart, as `aaf_indirect` samples
