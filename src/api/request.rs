@@ -333,7 +333,7 @@ mod tests {
         assert_eq!(p.job.halt.max_passes, 3);
         assert_eq!(p.job.bounces, 2);
         assert_eq!(p.info.seed, 5);
-        assert_eq!(p.info.method, "aaf");
+        assert_eq!(p.info.method, "auto");
         assert_eq!(p.info.camera.position, [278.0, 273.0, -800.0]);
     }
 

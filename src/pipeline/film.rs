@@ -47,6 +47,18 @@ pub struct Tally {
 }
 
 impl Tally {
+    /// A pass's outcome from its parts: adds their rays and dropped samples to the running
+    /// counts and says whether every pixel got its samples; a cancellation is an error.
+    pub fn settle(parts: &[Tally], stop: &StopCheck, rays: &mut u64, dropped: &mut u64) -> Result<bool, RenderError> {
+        if stop.is_cancelled() {
+            return Err(RenderError::Cancelled);
+        }
+        let total = Tally::total(parts);
+        *rays += total.rays;
+        *dropped += total.dropped;
+        Ok(total.complete)
+    }
+
     /// The tally of work done in parts (e.g. bands of rows traced in parallel).
     pub fn total(parts: &[Tally]) -> Tally {
         parts.iter().fold(Tally { complete: true, ..Tally::default() }, |a, t| Tally {

@@ -330,13 +330,7 @@ impl IndirectStrategy {
                 Tally { rays, dropped, complete: true }
             })
             .collect();
-        if ctx.stop.is_cancelled() {
-            return Err(RenderError::Cancelled);
-        }
-        let total = Tally::total(&results);
-        self.rays += total.rays;
-        self.dropped += total.dropped;
-        Ok(total.complete)
+        Tally::settle(&results, ctx.stop, &mut self.rays, &mut self.dropped)
     }
 
     /// Builds the frame of pass `pass`: filters each component and composes. Every per-pixel

@@ -38,8 +38,8 @@ use crate::render::filter::{FilterKernel, FilterOptions, FilterSurface};
 use crate::render::gbuffer::GBuffer;
 use crate::render::huge_pages::filled;
 use crate::render::integrator::{emitted, radiance_from, DirectLights, PathResult};
-use crate::render::light::{EmissionProfile, Light, RectLight};
-use crate::render::material::Material;
+use crate::render::light::{EmissionProfile, Light, LightSample, RectLight};
+use crate::render::material::{Brdf, Material};
 use crate::render::sampler::PixelSampler;
 use crate::render::scene::Scene;
 use crate::render::scene::Surface;
@@ -359,13 +359,7 @@ impl ShadowStrategy {
                 Tally { rays, dropped, complete: true }
             })
             .collect();
-        if ctx.stop.is_cancelled() {
-            return Err(RenderError::Cancelled);
-        }
-        let total = Tally::total(&results);
-        self.rays += total.rays;
-        self.dropped += total.dropped;
-        Ok(total.complete)
+        Tally::settle(&results, ctx.stop, &mut self.rays, &mut self.dropped)
     }
 
     /// Slopes for every pixel-light: its own from the sparse pass, or the mean of occluded
@@ -727,16 +721,7 @@ fn sample_pixel(
             }
         }
         let Some(ls) = rect.sample(hit.p, light_u) else { continue };
-        let cos = hit.ns.dot(ls.wi);
-        if cos <= 0.0 || hit.ng.dot(ls.wi) <= 0.0 {
-            continue;
-        }
-        let diffuse = if hit.ns.dot(wo) > 0.0 { brdf.kd * (1.0 / std::f32::consts::PI) } else { Vec3::ZERO };
-        let u = diffuse * ls.weight * cos;
-        let g = brdf.eval_specular(wo, ls.wi, hit.ns) * ls.weight * cos;
-        if !u.is_finite() || !g.is_finite() || (u == Vec3::ZERO && g == Vec3::ZERO) {
-            continue;
-        }
+        let Some((u, g)) = integrands(&brdf, &hit, wo, &ls) else { continue };
         rays += 1;
         let visible = if record_slopes {
             match occluder_slopes(scene, hit.p, hit.ng, ls.point) {
@@ -777,6 +762,21 @@ fn sample_pixel(
     } else {
         (rays, 1)
     }
+}
+
+/// The diffuse integrand u = kd/pi Le G / pdf (the visibility's weight, Eq. 10) and the glossy
+/// one of light sample `ls` at `hit` seen from `wo`; None where the sample is below the surface's
+/// horizon, or carries nothing, or is not finite.
+pub(crate) fn integrands(brdf: &Brdf, hit: &Surface, wo: Vec3, ls: &LightSample) -> Option<(Vec3, Vec3)> {
+    let cos = hit.ns.dot(ls.wi);
+    if cos <= 0.0 || hit.ng.dot(ls.wi) <= 0.0 {
+        return None;
+    }
+    // kd/pi where the BRDF is defined: nothing where the shading normal faces away from the viewer.
+    let diffuse = if hit.ns.dot(wo) > 0.0 { brdf.kd * (1.0 / std::f32::consts::PI) } else { Vec3::ZERO };
+    let u = diffuse * ls.weight * cos;
+    let g = brdf.eval_specular(wo, ls.wi, hit.ns) * ls.weight * cos;
+    (u.is_finite() && g.is_finite() && (u != Vec3::ZERO || g != Vec3::ZERO)).then_some((u, g))
 }
 
 /// For a shadow ray from surface point `p` to light point `y`: None when unoccluded, else the

@@ -205,13 +205,7 @@ impl AutoStrategy {
                 Tally { rays, dropped, complete: true }
             })
             .collect();
-        if ctx.stop.is_cancelled() {
-            return Err(RenderError::Cancelled);
-        }
-        let total = Tally::total(&results);
-        self.rays += total.rays;
-        self.dropped += total.dropped;
-        Ok(total.complete)
+        Tally::settle(&results, ctx.stop, &mut self.rays, &mut self.dropped)
     }
 
     /// The slopes every pixel-light is filtered with: the mean of the analysis samples' slopes

@@ -1,7 +1,7 @@
 //! One camera sample of `auto`: one jittered camera path, split at its first hit into the parts
 //! the frame filters apart (methods.md §5.1).
 use crate::methods::aaf_indirect::{incident, ComponentSums};
-use crate::methods::aaf_shadows::{occluder_slopes, unshadowed};
+use crate::methods::aaf_shadows::{integrands, occluder_slopes, unshadowed};
 use crate::pipeline::job::RenderJob;
 use crate::render::frame_basis::{cosine_hemisphere, to_world};
 use crate::render::integrator::emitted;
@@ -127,16 +127,7 @@ impl Sampling<'_> {
                 (Light::Rect(rect), Some(l)) => {
                     let s = &mut lights[*l];
                     let Some(ls) = rect.sample(hit.p, u) else { continue };
-                    let cos = hit.ns.dot(ls.wi);
-                    if cos <= 0.0 || hit.ng.dot(ls.wi) <= 0.0 {
-                        continue;
-                    }
-                    let kd = if front { brdf.kd * std::f32::consts::FRAC_1_PI } else { Vec3::ZERO };
-                    let u = kd * ls.weight * cos;
-                    let g = brdf.eval_specular(wo, ls.wi, hit.ns) * ls.weight * cos;
-                    if !u.is_finite() || !g.is_finite() || (u == Vec3::ZERO && g == Vec3::ZERO) {
-                        continue;
-                    }
+                    let Some((u, g)) = integrands(&brdf, &hit, wo, &ls) else { continue };
                     rays += 1;
                     let visible = if analysis {
                         match occluder_slopes(scene, hit.p, hit.ng, ls.point).0 {
