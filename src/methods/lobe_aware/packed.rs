@@ -419,31 +419,3 @@ mod tests {
         assert_eq!(run(1), run(2));
     }
 }
-#[cfg(test)]
-mod timing {
-    use super::*;
-    #[test]
-    #[ignore]
-    fn time_gather() {
-        let (w, h) = (320usize, 320usize);
-        let g = PackedGuide {
-            axis: [0.0, 1.0, 0.0],
-            sharpness: 1.8852,
-            ln_sharpness: 1.8852f32.ln(),
-            depth: 3.0,
-            valid: 1.0,
-        };
-        let guides = vec![g; w * h];
-        let sigma = vec![2.6667f32; w * h];
-        let mut v: Vec<[f32; 3]> = (0..w * h).map(|i| [(i % 7) as f32, 1.0, 2.0]).collect();
-        let o = PackedOptions { beta: 20.0, sigma_z2_relative: 0.01, max_radius: 8 };
-        for _ in 0..3 {
-            let t = std::time::Instant::now();
-            gather(&guides, &sigma, w, &mut v, &o);
-            let t1 = t.elapsed();
-            let t = std::time::Instant::now();
-            let _ = transpose(&guides, w, h);
-            eprintln!("gather {:?} transpose-guides {:?}", t1, t.elapsed());
-        }
-    }
-}
