@@ -3,10 +3,10 @@
 //! Mehta 2013 for indirect light) with Tokuyoshi 2015's lobe-aware cross-bilateral weights in
 //! place of their normal threshold, every part of the light filtered apart and untextured.
 //!
-//! - **Samples.** The same samples everywhere, four times as many per pass (the AAF
-//!   papers' counts ask for many more than a preview budget has: here they are a ceiling the
-//!   widths respect, not a floor). One jittered camera path per sample, split at its first hit
-//!   (`sample.rs`): each rectangular light's diffuse direct light as r(x) times visibility
+//! - **Samples.** The same samples everywhere, four times as many per pass. The AAF papers'
+//!   counts (Eq. 21 in both) ask for far more than a preview budget has, so they are not used:
+//!   the widths follow the samples a pixel has instead. One jittered camera path per sample,
+//!   split at its first hit (`sample.rs`): each rectangular light's diffuse direct light as r(x) times visibility
 //!   (Mehta 2012 Eq. 1: r exact, the visibility A / B the only noisy factor), the indirect
 //!   light under the cosine lobe and under the glossy lobe without textures (Mehta 2013
 //!   Sec. 5), and the rest (emission, point lights, glossy direct light) unfiltered.
@@ -16,8 +16,9 @@
 //!   neighbourhood, so that no width follows its own few samples (which biases the mean).
 //! - **Widths.** At n samples per pixel each part is filtered at the width its paper gives at
 //!   mu = mu0 (n / n_ref)^(1/6) (Mehta 2012 Eq. 13, Mehta 2013 Eqs. 15-16): the papers' widths
-//!   at their operating point near n_ref, wider below it, narrowing as the samples grow so that
-//!   the stream converges to the `uniform` ground truth.
+//!   at their operating point near n_ref, wider below it, narrowing as the samples grow, and
+//!   never wider than a screen kernel that narrows at the same rate (`AutoOptions::max_sigma`),
+//!   so that the stream converges to the `uniform` ground truth.
 //! - **Filter.** Tokuyoshi's gather (Eq. 1) with the depth weight (Eq. 3) and the lobe-aware
 //!   weight (Eq. 12): diffuse lobes for the visibility and the diffuse light, each pixel's
 //!   specular lobe for the glossy light (`lobe_aware::packed`).
