@@ -77,10 +77,8 @@ struct LightSums {
     /// Sum of the glossy direct light (sampled, shadowed, unfiltered).
     spec: [f64; 3],
     n: u32,
-    /// Slopes from the sparse pass (s1 max, s2 min); `occluded` when any sparse ray was.
-    s1: f64,
-    s2: f64,
-    occluded: bool,
+    /// Slopes from the sparse pass.
+    occ: OccluderRange,
 }
 
 impl Default for LightSums {
@@ -93,9 +91,7 @@ impl Default for LightSums {
             r_n: 0,
             spec: [0.0; 3],
             n: 0,
-            s1: 0.0,
-            s2: f64::INFINITY,
-            occluded: false,
+            occ: OccluderRange::NONE,
         }
     }
 }
@@ -367,7 +363,7 @@ impl ShadowStrategy {
     fn fill_slopes(&mut self) {
         let Some(g) = self.gbuffer.as_ref() else { return };
         let sums = &self.sums;
-        let own = |k: usize| sums[k].occluded.then(|| (sums[k].s1, sums[k].s2));
+        let own = |k: usize| sums[k].occ.get();
         let at = FillGrid { width: self.width, height: self.height, lights: self.lights.len() };
         self.slopes = fill_slopes(at, self.opts.fill_radius as usize, &|p| g.pixels[p].is_valid(), &own, true);
     }
@@ -723,20 +719,7 @@ fn sample_pixel(
         let Some(ls) = rect.sample(hit.p, light_u) else { continue };
         let Some((u, g)) = integrands(&brdf, &hit, wo, &ls) else { continue };
         rays += 1;
-        let visible = if record_slopes {
-            match occluder_slopes(scene, hit.p, hit.ng, ls.point) {
-                (Some((s1, s2)), extra) => {
-                    rays += extra;
-                    s.occluded = true;
-                    s.s1 = s.s1.max(s1);
-                    s.s2 = s.s2.min(s2);
-                    false
-                }
-                (None, _) => true,
-            }
-        } else {
-            !scene.occluded(hit.p, hit.ng, ls.point)
-        };
+        let visible = s.occ.visible(scene, &hit, ls.point, record_slopes);
         for c in 0..3 {
             s.b[c] += u[c] as f64;
             if visible {
@@ -777,6 +760,43 @@ pub(crate) fn integrands(brdf: &Brdf, hit: &Surface, wo: Vec3, ls: &LightSample)
     let u = diffuse * ls.weight * cos;
     let g = brdf.eval_specular(wo, ls.wi, hit.ns) * ls.weight * cos;
     (u.is_finite() && g.is_finite() && (u != Vec3::ZERO || g != Vec3::ZERO)).then_some((u, g))
+}
+
+/// The extreme slopes of a pixel-light's occluded sparse shadow rays (s1 the largest, s2 the
+/// smallest: the occluders nearest the light and nearest the receiver, methods.md §1.1), and
+/// whether any of them was occluded.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct OccluderRange {
+    s1: f64,
+    s2: f64,
+    occluded: bool,
+}
+
+impl OccluderRange {
+    pub(crate) const NONE: OccluderRange = OccluderRange { s1: 0.0, s2: f64::INFINITY, occluded: false };
+
+    /// Whether light point `y` is visible from `hit`. With `record` (a sparse sample), one
+    /// traversal finds both ends of the occluded range and an occluded ray widens the slopes;
+    /// otherwise an any-hit query answers.
+    pub(crate) fn visible(&mut self, scene: &Scene, hit: &Surface, y: Vec3, record: bool) -> bool {
+        if !record {
+            return !scene.occluded(hit.p, hit.ng, y);
+        }
+        match occluder_slopes(scene, hit.p, hit.ng, y).0 {
+            Some((s1, s2)) => {
+                self.occluded = true;
+                self.s1 = self.s1.max(s1);
+                self.s2 = self.s2.min(s2);
+                false
+            }
+            None => true,
+        }
+    }
+
+    /// (s1, s2) if any recorded ray was occluded.
+    pub(crate) fn get(&self) -> Option<(f64, f64)> {
+        self.occluded.then_some((self.s1, self.s2))
+    }
 }
 
 /// For a shadow ray from surface point `p` to light point `y`: None when unoccluded, else the

@@ -469,16 +469,16 @@ fn the_fill_averages_the_occluded_pixels_within_its_radius() {
                 let q = &st.sums[p * nl + l];
                 let expect = if !valid {
                     None
-                } else if q.occluded {
+                } else if q.occ.occluded {
                     own += 1;
-                    Some((q.s1, q.s2))
+                    Some((q.occ.s1, q.occ.s2))
                 } else {
                     let (mut n, mut s1, mut s2) = (0.0, 0.0, 0.0);
                     for ny in (y - r).max(0)..=(y + r).min(h - 1) {
                         for nx in (x - r).max(0)..=(x + r).min(w - 1) {
                             let o = &st.sums[(ny * w + nx) as usize * nl + l];
-                            if (nx - x).pow(2) + (ny - y).pow(2) <= r * r && o.occluded {
-                                (n, s1, s2) = (n + 1.0, s1 + o.s1, s2 + o.s2);
+                            if (nx - x).pow(2) + (ny - y).pow(2) <= r * r && o.occ.occluded {
+                                (n, s1, s2) = (n + 1.0, s1 + o.occ.s1, s2 + o.occ.s2);
                             }
                         }
                     }
@@ -486,7 +486,7 @@ fn the_fill_averages_the_occluded_pixels_within_its_radius() {
                 };
                 match (st.slopes[p * nl + l].get(), expect) {
                     (Some(got), Some(want)) => {
-                        filled += usize::from(!q.occluded);
+                        filled += usize::from(!q.occ.occluded);
                         for (g, e) in [(got.0, want.0), (got.1, want.1)] {
                             assert!(
                                 (g - e).abs() <= 1e-6 * e.abs().max(1e-3),

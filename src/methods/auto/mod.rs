@@ -214,7 +214,7 @@ impl AutoStrategy {
     fn update_slopes(&mut self, fill_radius: usize) {
         let Some(g) = self.gbuffer.as_ref() else { return };
         let sums = &self.light_sums;
-        let own = |k: usize| sums[k].occluded.then(|| (sums[k].s1, sums[k].s2));
+        let own = |k: usize| sums[k].occ.get();
         let grid = FillGrid { width: self.width, height: self.height, lights: self.lights.len() };
         self.slopes = fill_slopes(grid, fill_radius, &|p| g.pixels[p].is_valid(), &own, false);
     }

@@ -1,7 +1,7 @@
 //! One camera sample of `auto`: one jittered camera path, split at its first hit into the parts
 //! the frame filters apart (methods.md §5.1).
 use crate::methods::aaf_indirect::{incident, ComponentSums};
-use crate::methods::aaf_shadows::{integrands, occluder_slopes, unshadowed};
+use crate::methods::aaf_shadows::{integrands, unshadowed, OccluderRange};
 use crate::pipeline::job::RenderJob;
 use crate::render::frame_basis::{cosine_hemisphere, to_world};
 use crate::render::integrator::emitted;
@@ -50,14 +50,12 @@ pub(super) struct LightSums {
     pub r: [f64; 3],
     pub r_n: u32,
     /// Extreme slopes of the analysis samples' occluded shadow rays.
-    pub s1: f64,
-    pub s2: f64,
-    pub occluded: bool,
+    pub occ: OccluderRange,
 }
 
 impl Default for LightSums {
     fn default() -> Self {
-        LightSums { a: [0.0; 3], b: [0.0; 3], r: [0.0; 3], r_n: 0, s1: 0.0, s2: f64::INFINITY, occluded: false }
+        LightSums { a: [0.0; 3], b: [0.0; 3], r: [0.0; 3], r_n: 0, occ: OccluderRange::NONE }
     }
 }
 
@@ -129,19 +127,7 @@ impl Sampling<'_> {
                     let Some(ls) = rect.sample(hit.p, u) else { continue };
                     let Some((u, g)) = integrands(&brdf, &hit, wo, &ls) else { continue };
                     rays += 1;
-                    let visible = if analysis {
-                        match occluder_slopes(scene, hit.p, hit.ng, ls.point).0 {
-                            Some((s1, s2)) => {
-                                s.occluded = true;
-                                s.s1 = s.s1.max(s1);
-                                s.s2 = s.s2.min(s2);
-                                false
-                            }
-                            None => true,
-                        }
-                    } else {
-                        !scene.occluded(hit.p, hit.ng, ls.point)
-                    };
+                    let visible = s.occ.visible(scene, &hit, ls.point, analysis);
                     for c in 0..3 {
                         s.b[c] += u[c] as f64;
                         if visible {
