@@ -2,8 +2,8 @@
 //! bounces. Emitters hit by bounce rays add nothing (their light arrives by next-event
 //! estimation), so no light path is counted twice.
 use super::frame_basis::{cosine_hemisphere, to_world};
-use super::light::Light;
-use super::material::Material;
+use super::light::{Light, LightSample};
+use super::material::{Brdf, Material};
 use super::sampler::PixelSampler;
 use super::scene::{Scene, Surface};
 use glam::Vec3;
@@ -50,21 +50,30 @@ pub fn direct_light_of(
             Light::Point(p) => p.sample(s.p),
         };
         let Some(ls) = sample else { continue };
-        // Light below the geometric horizon cannot arrive without crossing the surface.
-        let cos = s.ns.dot(ls.wi);
-        if cos <= 0.0 || s.ng.dot(ls.wi) <= 0.0 {
-            continue;
-        }
-        let f = brdf.eval(wo, ls.wi, s.ns);
-        if f == Vec3::ZERO {
-            continue;
-        }
-        rays += 1;
-        if !scene.occluded(s.p, s.ng, ls.point) {
-            sum += f * ls.weight * cos;
-        }
+        let (l, r) = light_sample_radiance(scene, s, wo, &brdf, &ls);
+        sum += l;
+        rays += r;
     }
     (sum, rays)
+}
+
+/// The light of one light sample `ls` reflected at `s` towards `wo` (f cos weight, 0 where
+/// occluded) and the shadow rays traced (0 or 1).
+pub fn light_sample_radiance(scene: &Scene, s: &Surface, wo: Vec3, brdf: &Brdf, ls: &LightSample) -> (Vec3, u32) {
+    // Light below the geometric horizon cannot arrive without crossing the surface.
+    let cos = s.ns.dot(ls.wi);
+    if cos <= 0.0 || s.ng.dot(ls.wi) <= 0.0 {
+        return (Vec3::ZERO, 0);
+    }
+    let f = brdf.eval(wo, ls.wi, s.ns);
+    if f == Vec3::ZERO {
+        return (Vec3::ZERO, 0);
+    }
+    if scene.occluded(s.p, s.ng, ls.point) {
+        (Vec3::ZERO, 1)
+    } else {
+        (f * ls.weight * cos, 1)
+    }
 }
 
 /// What a render estimates at each pixel.

@@ -33,7 +33,7 @@
 //! (methods.md §3.4).
 pub mod options;
 pub mod params;
-mod tokuyoshi;
+pub(crate) mod tokuyoshi;
 
 pub use options::IndirectOptions;
 
@@ -220,7 +220,11 @@ impl IndirectStrategy {
         // The surface is the filter's own work: it counts in the method's seconds.
         let t = Instant::now();
         if self.mode.tokuyoshi() {
-            self.guides = self.parts().iter().map(|&part| self.guides_of(ctx, &g, part)).collect();
+            self.guides = self
+                .parts()
+                .iter()
+                .map(|&part| tokuyoshi::guides(ctx, &g, part == Part::Glossy, &self.lobe_opts))
+                .collect();
         }
         self.surface = (self.mode != FilterMode::Adaptive && !self.mode.tokuyoshi()).then(|| {
             FilterSurface::new(g.pixels.len(), self.width, &self.opts.filter, |p| {

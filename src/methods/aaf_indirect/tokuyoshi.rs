@@ -3,43 +3,35 @@
 use super::{glossy_model, IndirectStrategy, Part};
 use crate::methods::lobe_aware::filter::{self, BilateralOptions, Guide, Similarity};
 use crate::methods::lobe_aware::lobe;
+use crate::methods::lobe_aware::options::LobeAwareOptions;
 use crate::methods::mode::FilterMode;
 use crate::pipeline::strategy::PassContext;
 use crate::render::gbuffer::GBuffer;
 use rayon::prelude::*;
 
-impl IndirectStrategy {
-    /// Tokuyoshi's guides of `part` from the G-buffer: the diffuse lobe about the normal, or
-    /// the glossy pixel's specular lobe (App. B), smoothed with kappa (Eq. 10).
-    pub(super) fn guides_of(&self, ctx: &PassContext, g: &GBuffer, part: Part) -> Vec<Guide> {
-        let o = &self.lobe_opts;
-        let kappa = o.kappa(ctx.job.bounces);
-        let camera = ctx.view.position.as_dvec3();
-        g.pixels
-            .par_iter()
-            .map(|s| {
-                let n = s.normal.as_dvec3();
-                let position = s.position.as_dvec3();
-                let psi = (camera - position).normalize_or_zero();
-                let lobe = match part {
-                    Part::Diffuse => lobe::diffuse(n),
-                    Part::Glossy => {
-                        lobe::specular(glossy_model(ctx.scene, s.material), s.exponent as f64, n, psi, &o.lobe)
-                    }
-                };
-                Guide {
-                    // As for AAF's filter: any hit; the frame also asks for samples that reached a
-                    // reflecting surface (an area light's pixel at its edge has some).
-                    valid: s.is_valid(),
-                    depth: s.depth as f64,
-                    normal: n,
-                    lobe: lobe.smoothed(kappa),
-                    sigma_px: 0.0,
-                }
-            })
-            .collect()
-    }
+/// Tokuyoshi's guides from the G-buffer: each pixel's diffuse lobe about its normal, or with
+/// `glossy` its specular lobe (App. B), smoothed with the render's kappa (Eq. 10). Valid at any
+/// hit; the filters also ask each pixel for samples that reached a reflecting surface (an area
+/// light's pixel at its edge has some). Shared by the lobe- and normal-aware modes and `auto`.
+pub(crate) fn guides(ctx: &PassContext, g: &GBuffer, glossy: bool, o: &LobeAwareOptions) -> Vec<Guide> {
+    let kappa = o.kappa(ctx.job.bounces);
+    let camera = ctx.view.position.as_dvec3();
+    g.pixels
+        .par_iter()
+        .map(|s| {
+            let n = s.normal.as_dvec3();
+            let lobe = if glossy {
+                let psi = (camera - s.position.as_dvec3()).normalize_or_zero();
+                lobe::specular(glossy_model(ctx.scene, s.material), s.exponent as f64, n, psi, &o.lobe)
+            } else {
+                lobe::diffuse(n)
+            };
+            Guide { valid: s.is_valid(), depth: s.depth as f64, normal: n, lobe: lobe.smoothed(kappa), sigma_px: 0.0 }
+        })
+        .collect()
+}
 
+impl IndirectStrategy {
     /// Filters the untextured light of `part` with Tokuyoshi's gather (Eq. 1), pixel p's screen
     /// kernel `sigma(p)` pixels wide (narrowing with the samples for the lobe- and
     /// normal-aware methods); pixels whose samples found no reflecting

@@ -33,10 +33,9 @@ mod widths;
 
 pub use options::AutoOptions;
 
-use super::aaf_indirect::IndirectStrategy;
+use super::aaf_indirect::{tokuyoshi, IndirectStrategy};
 use super::aaf_shadows::{fill_slopes, ratio, shadow_light, FillGrid, ShadowLight, Slopes};
 use super::lobe_aware::filter::Guide;
-use super::lobe_aware::lobe;
 use super::lobe_aware::packed::{gather, PackedGuide, PackedOptions};
 use super::mode::FilterMode;
 use super::parts;
@@ -151,23 +150,15 @@ impl AutoStrategy {
         // (`trace`) in a scene with no rectangular light too.
         self.light_sums = filled(n * self.lights.len().max(1), LightSums::default());
         let t = Instant::now();
-        let kappa = ctx.job.lobe.kappa(ctx.job.bounces);
-        let camera = ctx.view.position.as_dvec3();
-        let guide = |s: &crate::render::gbuffer::GSample, glossy: bool| {
-            let normal = s.normal.as_dvec3();
-            let lobe = if glossy {
-                let psi = (camera - s.position.as_dvec3()).normalize_or_zero();
-                let model = crate::methods::aaf_indirect::glossy_model(ctx.scene, s.material);
-                lobe::specular(model, s.exponent as f64, normal, psi, &ctx.job.lobe.lobe)
-            } else {
-                lobe::diffuse(normal)
-            };
-            let valid = s.is_valid() && !s.emitter;
-            PackedGuide::new(&Guide { valid, depth: s.depth as f64, normal, lobe: lobe.smoothed(kappa), sigma_px: 0.0 })
+        // Emitters neither feed nor are filtered.
+        let packed = |guides: Vec<Guide>| -> Vec<PackedGuide> {
+            (guides.par_iter().zip(&g.pixels))
+                .map(|(guide, s)| PackedGuide::new(&Guide { valid: guide.valid && !s.emitter, ..*guide }))
+                .collect()
         };
-        self.diffuse_guides = g.pixels.par_iter().map(|s| guide(s, false)).collect();
+        self.diffuse_guides = packed(tokuyoshi::guides(ctx, &g, false, &ctx.job.lobe));
         if self.glossy {
-            self.glossy_guides = g.pixels.par_iter().map(|s| guide(s, true)).collect();
+            self.glossy_guides = packed(tokuyoshi::guides(ctx, &g, true, &ctx.job.lobe));
         }
         self.widths = Some(Widths::new(ctx, &g));
         self.method_seconds += t.elapsed().as_secs_f64();

@@ -4,7 +4,7 @@ use crate::methods::aaf_indirect::{incident, ComponentSums};
 use crate::methods::aaf_shadows::{integrands, unshadowed, OccluderRange};
 use crate::pipeline::job::RenderJob;
 use crate::render::frame_basis::{cosine_hemisphere, to_world};
-use crate::render::integrator::emitted;
+use crate::render::integrator::{emitted, light_sample_radiance};
 use crate::render::light::Light;
 use crate::render::material::Material;
 use crate::render::sampler::PixelSampler;
@@ -141,18 +141,9 @@ impl Sampling<'_> {
                 (Light::Rect(_), None) => {}
                 (Light::Point(p), _) => {
                     let Some(ls) = p.sample(hit.p) else { continue };
-                    let cos = hit.ns.dot(ls.wi);
-                    if cos <= 0.0 || hit.ng.dot(ls.wi) <= 0.0 {
-                        continue;
-                    }
-                    let f = brdf.eval(wo, ls.wi, hit.ns);
-                    if f == Vec3::ZERO {
-                        continue;
-                    }
-                    rays += 1;
-                    if !scene.occluded(hit.p, hit.ng, ls.point) {
-                        rest += f * ls.weight * cos;
-                    }
+                    let (l, r) = light_sample_radiance(scene, &hit, wo, &brdf, &ls);
+                    rest += l;
+                    rays += r as u64;
                 }
             }
         }
