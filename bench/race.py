@@ -8,6 +8,7 @@ wedge's methods at equal wall time, on one scene, in one run.
     cargo build --release
     python3 bench/race.py cornell --bounces 0      # also --bounces 1 and 3
     python3 bench/race.py glossy-plates
+    python3 bench/race.py cornell --bounces 1 --methods uniform,auto,uniform+oidn,auto+oidn
     python3 bench/race.py scenes/cornell.json --width 64 --height 64 --budgets 0.1,0.2 \
         --spp 1,2 --seeds 1 --reference-spp 64     # a smoke test
 
@@ -21,6 +22,10 @@ pixels its edge crosses, whose error is the camera jitter's coverage of the edge
 denoiser and no filter touches and which would otherwise dominate the error), as the issue's
 figures leave out the light's own pixels.
 FLIP is LDR-FLIP (flip-evaluator) on sRGB-encoded images clamped to [0, 1].
+
+A method `M+oidn` is wedge's method M writing its denoiser inputs (`--aovs`) and OIDN run on
+its frame with them, as for Mitsuba: its seconds are the render's plus OIDN's, and its row at
+a budget is read off its curve over the budgets like Mitsuba's.
 
 Time, on both sides, is the render alone: scene loading and acceleration structures excluded.
 - wedge: `--time B`, its own wall-time halt, which starts after the scene is built and covers
@@ -194,22 +199,52 @@ def reference(args, mc, path, name, bounces):
 WROTE = re.compile(r"\((\d+) passes, ([0-9.]+) spp, ([0-9.]+) s.*stopped by ([^)]*)\)")
 
 
+def wedge_oidn(path):
+    """OIDN (as for Mitsuba: hdr, quality high, noisy auxiliaries) on a wedge EXR written with
+    --aovs: the denoised image and OIDN's seconds."""
+    import mitsuba as mi
+    import pyoidn
+    layers = dict(mi.Bitmap(path).split())
+    key = next(k for k in layers if k in ("<root>", "", "R,G,B") or k.endswith("RGB"))
+    color = np.array(layers[key], dtype=np.float32)[:, :, :3]
+    albedo = np.clip(np.array(layers["albedo"], dtype=np.float32), 0, 1)
+    normal = np.clip(np.array(layers["normal"], dtype=np.float32), -1, 1)
+    t = time.perf_counter()
+    out = pyoidn.denoise(color, albedo, normal, hdr=True, quality="high")
+    return np.asarray(out, dtype=np.float64), time.perf_counter() - t
+
+
 def wedge_runs(args, mc, path, bounces, metrics):
-    """{method: {budget: [(seconds, spp, rmse, rel_mse, flip, stopped by), ...per seed]}}"""
+    """{method: {budget: [(seconds, spp, rmse, rel_mse, flip, stopped by), ...per seed]}}. A
+    method `M+oidn` renders with M and --aovs and denoises with OIDN: its time is wedge's
+    render plus OIDN's, and its budget is the render's alone (as for Mitsuba + OIDN, the
+    table reads its value at equal total time from the curve of budgets)."""
     out = {}
+    if any(m.endswith("+oidn") for m in args.methods):
+        import pyoidn  # loaded and run once untimed, as Mitsuba + OIDN is warmed up
+        z = np.zeros((8, 8, 3), dtype=np.float32)
+        pyoidn.denoise(z, z, z, hdr=True, quality="high")
     with tempfile.TemporaryDirectory() as tmp:
         for method in args.methods:
+            base, oidn = (method[:-5], True) if method.endswith("+oidn") else (method, False)
             for budget in args.budgets:
                 rows = []
                 for seed in range(1, args.seeds + 1):
                     cmd = [mc.WEDGE, "render", path, "--out", tmp, "--width", str(args.width), "--height", str(args.height),
-                           "--seed", str(seed), "--method", method, "--time", str(budget), "--bounces", str(bounces)]
+                           "--seed", str(seed), "--method", base, "--time", str(budget), "--bounces", str(bounces)]
+                    if oidn:
+                        cmd.append("--aovs")
                     p = subprocess.run(cmd, capture_output=True, text=True)
                     m = WROTE.search(p.stderr)
                     if p.returncode != 0 or not m:
                         raise SystemExit(f"{' '.join(cmd)} failed:\n{p.stderr}")
-                    img = mc.read_wedge_exr(os.path.join(tmp, "final.exr"))
-                    rows.append((float(m[3]), float(m[2]), *metrics(img), m[4]))
+                    seconds = float(m[3])
+                    if oidn:
+                        img, denoise_seconds = wedge_oidn(os.path.join(tmp, "final.exr"))
+                        seconds += denoise_seconds
+                    else:
+                        img = mc.read_wedge_exr(os.path.join(tmp, "final.exr"))
+                    rows.append((seconds, float(m[2]), *metrics(img), m[4]))
                     if seed == 1:
                         save(args.save, f"wedge-{method}-{budget:g}s", img)
                 out.setdefault(method, {})[budget] = rows
@@ -366,7 +401,7 @@ def main():
     for budget in args.budgets:
         rows = []
         for entry, points in curves.items():
-            if entry.startswith("wedge"):
+            if entry.startswith("wedge") and not entry.endswith("+oidn"):
                 secs, spp, rmse, rel, flip = median_point(points[budget])
                 rows.append([budget, entry, secs, spp, rmse, rel, flip, False])
             else:

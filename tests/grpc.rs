@@ -93,6 +93,7 @@ async fn tiny_chunks_reassemble_bit_exact() {
         unfiltered: true,
         components: true,
         format: PixelFormat::F32 as i32,
+        ..Default::default()
     });
     let tiled = TestServer::with_config(ServerConfig { max_chunk_bytes: 1, ..Default::default() }).await;
     let whole = TestServer::start().await;
@@ -449,6 +450,7 @@ async fn a_stock_client_receives_1080p_frames_with_every_layer() {
         unfiltered: true,
         components: true,
         format: 0,
+        ..Default::default()
     });
     let mut chunks = 0usize;
     let mut client = server.client().await;
@@ -537,4 +539,36 @@ async fn the_noise_target_and_error_estimates_cross_the_wire() {
     let local = render_locally(&req, "cornell");
     assert_eq!(local.stats.estimated_error, last.stats.estimated_error);
     assert_eq!(local.color, last.color);
+}
+
+/// Denoiser inputs over the wire: the layers follow the others, every frame carries the same
+/// values, and they are right on the Cornell box (albedos of its materials, unit normals where
+/// the pixel sees one surface, positive depths).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn denoiser_inputs_stream_with_every_frame() {
+    let server = TestServer::start().await;
+    let mut req = cornell(32, 24, 2, 5);
+    req.outputs = Some(OutputSelection { color: true, albedo: true, normal: true, depth: true, ..Default::default() });
+    let got = within(120, "render with AOVs", async { collect(&mut server.client().await, req.clone()).await })
+        .await
+        .expect("render");
+    assert_eq!(got.started.layers, vec!["color", "albedo", "normal", "depth"]);
+    assert_eq!(got.frames.len(), 2);
+    let (a, b) = (got.frames[0].aovs.as_deref().unwrap(), got.frames[1].aovs.as_deref().unwrap());
+    assert_eq!(a, b, "the inputs change between frames");
+    let local = render_locally(&req, "cornell");
+    assert_eq!(local.aovs.as_deref(), Some(a), "gRPC inputs differ from a local render's");
+    assert_eq!(a.albedo.len(), 32 * 24);
+    let mut unit = 0;
+    for i in 0..a.albedo.len() {
+        assert!(a.albedo[i].iter().all(|&c| (0.0..=1.0).contains(&c)), "albedo {:?}", a.albedo[i]);
+        let len = a.normal[i].iter().map(|c| c * c).sum::<f32>().sqrt();
+        assert!(len <= 1.0 + 1e-5, "normal {:?}", a.normal[i]);
+        unit += usize::from((len - 1.0).abs() < 1e-4);
+        assert!(a.depth[i] > 0.0, "depth {}", a.depth[i]);
+    }
+    // Many pixels see one flat wall with all four rays (at 32x24 many others straddle edges).
+    assert!(unit > a.albedo.len() / 3, "{unit} unit normals");
+    // Without the request, none are traced or sent.
+    assert!(render_locally(&cornell(32, 24, 1, 5), "cornell").aovs.is_none());
 }

@@ -236,6 +236,7 @@ proptest! {
             indirect: Default::default(),
             lobe: Default::default(),
             auto: Default::default(),
+            aov_samples: 0,
         };
         let mut last: Option<Frame> = None;
         render(&job, &CancelToken::new(), &mut |f| { last = Some(f.clone()); true }).expect("render");

@@ -1,9 +1,15 @@
 //! Turns a `RenderRequest` (from gRPC or built by the CLI) into a validated render job. Both
 //! front ends go through here, so the same request renders the same image either way, and every
 //! field of the request is checked in one place.
+use crate::api::wire::wants_aovs;
 use crate::pipeline::frame::{CameraInfo, RenderInfo};
 use crate::pipeline::job::{Halt, Integrand, Method, RenderJob};
 use crate::pipeline::registry::DEFAULT_METHOD;
+
+/// Camera rays per pixel of the denoiser inputs when the outputs ask for them: a 2x2
+/// stratified pattern (the first four points of the pixel's sample stream), enough for
+/// antialiased edges at a cost of four camera rays per pixel, once per render.
+pub const AOV_SAMPLES: u32 = 4;
 use crate::proto;
 use crate::scene::fields::{enum_value, err, finite, opt_vec3, FieldResult};
 use crate::scene::{builtin, compile, FieldError, SceneLimits};
@@ -126,6 +132,7 @@ pub fn prepare(
             indirect: Default::default(),
             lobe: Default::default(),
             auto: Default::default(),
+            aov_samples: if req.outputs.as_ref().is_some_and(wants_aovs) { AOV_SAMPLES } else { 0 },
         },
         info: RenderInfo {
             scene: scene_label.to_string(),

@@ -3,15 +3,18 @@
 //!
 //! Layers, in this order and only those selected: `color` (3 channels), `spp` (1),
 //! `filter_width` (1), `unfiltered` (3), then with `components` for each component the render
-//! has (`strategy::component_names` order) `spp.<component>` (1) and `filter_width.<component>` (1). When
-//! that leaves nothing, `color` alone. Pixels are row-major, channels interleaved, little-endian
+//! has (`strategy::component_names` order) `spp.<component>` (1) and `filter_width.<component>` (1),
+//! then the denoiser inputs `albedo` (3), `normal` (3) and `depth` (1). When that leaves
+//! nothing, `color` alone. Pixels are row-major, channels interleaved, little-endian
 //! f32 or f16.
 use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats, HaltReason};
 use crate::proto::{
     self, render_update, FrameChunk, FrameComplete, OutputSelection, PixelFormat, RenderStarted, RenderUpdate,
 };
+use crate::render::aovs::Aovs;
 use half::f16;
 use std::fmt;
+use std::sync::Arc;
 
 /// Default cap on the pixel bytes of one chunk: far below a stock client's 4 MiB receive limit
 /// even with every layer in f32 at 1920x1080 (17 rows per chunk; 9 with the layers of three
@@ -32,11 +35,17 @@ pub enum LayerKind {
     ComponentSpp(usize),
     /// `filter_width.<component>`, likewise.
     ComponentFilterWidth(usize),
+    /// Denoiser inputs (`render::aovs`).
+    Albedo,
+    Normal,
+    Depth,
 }
 
 impl LayerKind {
     /// The layers of every method, in wire order; the component layers follow them.
     pub const BASE: [LayerKind; 4] = [LayerKind::Color, LayerKind::Spp, LayerKind::FilterWidth, LayerKind::Unfiltered];
+    /// The denoiser inputs, which follow the component layers.
+    pub const AOVS: [LayerKind; 3] = [LayerKind::Albedo, LayerKind::Normal, LayerKind::Depth];
 
     /// The layer's name, without the `.<component>` suffix of component layers.
     pub fn stem(self) -> &'static str {
@@ -45,18 +54,21 @@ impl LayerKind {
             LayerKind::Spp | LayerKind::ComponentSpp(_) => "spp",
             LayerKind::FilterWidth | LayerKind::ComponentFilterWidth(_) => "filter_width",
             LayerKind::Unfiltered => "unfiltered",
+            LayerKind::Albedo => "albedo",
+            LayerKind::Normal => "normal",
+            LayerKind::Depth => "depth",
         }
     }
 
     /// The base layer of that name (component layers need their component: see `LayerSpec`).
     pub fn from_name(name: &str) -> Option<LayerKind> {
-        Self::BASE.into_iter().find(|k| k.stem() == name)
+        Self::BASE.into_iter().chain(Self::AOVS).find(|k| k.stem() == name)
     }
 
     pub fn channels(self) -> usize {
         match self {
-            LayerKind::Color | LayerKind::Unfiltered => 3,
-            LayerKind::Spp | LayerKind::FilterWidth => 1,
+            LayerKind::Color | LayerKind::Unfiltered | LayerKind::Albedo | LayerKind::Normal => 3,
+            LayerKind::Spp | LayerKind::FilterWidth | LayerKind::Depth => 1,
             LayerKind::ComponentSpp(_) | LayerKind::ComponentFilterWidth(_) => 1,
         }
     }
@@ -68,6 +80,9 @@ impl LayerKind {
             LayerKind::FilterWidth => sel.filter_width,
             LayerKind::Unfiltered => sel.unfiltered,
             LayerKind::ComponentSpp(_) | LayerKind::ComponentFilterWidth(_) => sel.components,
+            LayerKind::Albedo => sel.albedo,
+            LayerKind::Normal => sel.normal,
+            LayerKind::Depth => sel.depth,
         }
     }
 }
@@ -107,6 +122,7 @@ pub fn selected_layers(sel: &OutputSelection, components: &[&str]) -> Vec<LayerS
             layers.push(LayerSpec::component(LayerKind::ComponentFilterWidth(i), name));
         }
     }
+    layers.extend(LayerKind::AOVS.into_iter().filter(|k| k.selected(sel)).map(LayerSpec::base));
     if layers.is_empty() {
         layers.push(LayerSpec::base(LayerKind::Color));
     }
@@ -157,6 +173,15 @@ pub fn check_frame(frame: &Frame, sel: &OutputSelection, components: &[&str]) ->
             return Err(format!("a {} frame whose {name} layer has {len} pixels", size()));
         }
     }
+    if wants_aovs(sel) {
+        let Some(aovs) = &frame.aovs else {
+            return Err("a frame without the denoiser inputs (albedo, normal, depth) the output asks for".into());
+        };
+        let lens = [("albedo", aovs.albedo.len()), ("normal", aovs.normal.len()), ("depth", aovs.depth.len())];
+        if let Some((name, len)) = lens.into_iter().find(|&(_, len)| len != n) {
+            return Err(format!("a {} frame whose {name} layer has {len} pixels", size()));
+        }
+    }
     if !sel.components {
         return Ok(());
     }
@@ -175,6 +200,11 @@ pub fn check_frame(frame: &Frame, sel: &OutputSelection, components: &[&str]) ->
     Ok(())
 }
 
+/// Whether `sel` streams any denoiser input (then the render must trace them).
+pub fn wants_aovs(sel: &OutputSelection) -> bool {
+    sel.albedo || sel.normal || sel.depth
+}
+
 fn find_component<'f>(frame: &'f Frame, name: &str) -> Option<&'f ComponentMaps> {
     frame.components.iter().find(|c| c.name == name)
 }
@@ -191,6 +221,10 @@ pub fn encode_rows(frame: &Frame, sel: &OutputSelection, components: &[&str], y0
         Some(values) => put_scalars(data, &values[start..end], format),
         None => data.resize(data.len() + (end - start) * bytes_per_value(format), 0),
     };
+    let rgb = |data: &mut Vec<u8>, map: Option<&[[f32; 3]]>| match map {
+        Some(values) => put_rgb(data, &values[start..end], format),
+        None => data.resize(data.len() + (end - start) * 3 * bytes_per_value(format), 0),
+    };
     let component = |i: usize| components.get(i).and_then(|name| find_component(frame, name));
     let layers = selected_layers(sel, components)
         .into_iter()
@@ -206,6 +240,9 @@ pub fn encode_rows(frame: &Frame, sel: &OutputSelection, components: &[&str], y0
                 LayerKind::ComponentFilterWidth(i) => {
                     scalars(&mut data, component(i).and_then(|c| c.filter_width.as_deref()))
                 }
+                LayerKind::Albedo => rgb(&mut data, frame.aovs.as_deref().map(|a| a.albedo.as_slice())),
+                LayerKind::Normal => rgb(&mut data, frame.aovs.as_deref().map(|a| a.normal.as_slice())),
+                LayerKind::Depth => scalars(&mut data, frame.aovs.as_deref().map(|a| a.depth.as_slice())),
             }
             proto::Layer { name: layer.name, channels: kind.channels() as u32, data }
         })
@@ -343,7 +380,8 @@ struct Partial {
 /// frame on each `FrameComplete`.
 ///
 /// Layers that were not streamed are filled in as follows: `color` zeros, `spp` zeros,
-/// `filter_width` and `unfiltered` `None`, `components` empty. A component's `filter_width` is
+/// `filter_width` and `unfiltered` `None`, `components` empty, `aovs` `None` when no denoiser
+/// input was streamed (else those not streamed are empty). A component's `filter_width` is
 /// `None` when its layer is all zero (how unfiltered components are sent).
 #[derive(Default)]
 pub struct FrameAssembler {
@@ -523,6 +561,7 @@ impl FrameAssembler {
                 .iter()
                 .map(|name| ComponentMaps { name: name.clone(), spp: vec![0.0; n], filter_width: None })
                 .collect(),
+            aovs: None,
             stats: FrameStats {
                 pass: fc.pass,
                 mean_spp: fc.mean_spp,
@@ -536,6 +575,7 @@ impl FrameAssembler {
                 estimated_error: (fc.estimated_relative_error > 0.0).then_some(fc.estimated_relative_error),
             },
         };
+        let mut aovs: Option<Aovs> = None;
         for (spec, values) in header.layers.iter().zip(partial.values) {
             match spec.kind {
                 LayerKind::Color => frame.color = to_rgb(&values),
@@ -552,8 +592,12 @@ impl FrameAssembler {
                         c.filter_width = Some(values).filter(|w| w.iter().any(|&v| v != 0.0));
                     }
                 }
+                LayerKind::Albedo => aovs.get_or_insert_with(Aovs::default).albedo = to_rgb(&values),
+                LayerKind::Normal => aovs.get_or_insert_with(Aovs::default).normal = to_rgb(&values),
+                LayerKind::Depth => aovs.get_or_insert_with(Aovs::default).depth = values,
             }
         }
+        frame.aovs = aovs.map(Arc::new);
         Ok(frame)
     }
 }

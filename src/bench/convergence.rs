@@ -47,6 +47,7 @@ pub fn job(
         indirect: Default::default(),
         lobe: Default::default(),
         auto: Default::default(),
+        aov_samples: 0,
     }
 }
 

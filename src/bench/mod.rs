@@ -1,5 +1,6 @@
-//! Benchmarks that `wedge bench` runs: ray throughput of the tracer (`rays`) and latency to the
-//! first frame over gRPC (`latency`). Results are printed as Markdown for BENCHMARKS.md.
+//! Benchmarks that `wedge bench` runs: ray throughput of the tracer (`rays`), samples per
+//! second of the path tracer (`throughput`) and latency to the first frame over gRPC
+//! (`latency`). Results are printed as Markdown for BENCHMARKS.md.
 pub mod convergence;
 pub mod latency;
 pub mod noise;
@@ -7,6 +8,7 @@ pub mod plot;
 pub mod rays;
 pub mod reference;
 pub mod run;
+pub mod throughput;
 
 /// Median of a non-empty sample (the mean of the middle two for even counts).
 pub fn median(mut v: Vec<f64>) -> f64 {

@@ -106,6 +106,35 @@ pub enum BenchKind {
         #[arg(long, default_value = "1.5,16")]
         leaf_cost: String,
     },
+    /// Samples and rays per second of the uniform path tracer per scene, bounce count and
+    /// thread count (bench/throughput.py adds Mitsuba 3 and the time per stage).
+    Throughput {
+        /// Built-in scenes (default: every one), plus the procedural terrain.
+        #[arg(long, value_delimiter = ',')]
+        scenes: Vec<String>,
+        /// Triangles of the procedural terrain mesh (0 leaves it out).
+        #[arg(long, default_value_t = 1_000_000)]
+        terrain_triangles: usize,
+        #[arg(long, value_delimiter = ',', default_value = "0,1,3")]
+        bounces: Vec<u32>,
+        #[arg(long, value_delimiter = ',', default_value = "1,2")]
+        threads: Vec<usize>,
+        #[arg(long, default_value_t = 320)]
+        width: u32,
+        #[arg(long, default_value_t = 320)]
+        height: u32,
+        /// Samples per pixel of each timed trace.
+        #[arg(long, default_value_t = 16)]
+        spp: u32,
+        /// Timed traces per point (the median is reported).
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Also write the results as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
     /// The noise-target halt's own error estimate against the true error, per scene, method
     /// and target.
     Noise {
@@ -241,6 +270,28 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             }
             Ok(())
         }
+        BenchKind::Throughput {
+            scenes,
+            terrain_triangles,
+            bounces,
+            threads,
+            width,
+            height,
+            spp,
+            repeats,
+            seed,
+            json,
+        } => throughput(ThroughputArgs {
+            scenes,
+            terrain_triangles,
+            bounces,
+            threads,
+            size: (width, height),
+            spp,
+            repeats,
+            seed,
+            json,
+        }),
         BenchKind::Noise { scenes, width, height, targets, methods, reference_spp } => {
             use crate::bench::noise;
             use crate::pipeline::job::Method;
@@ -374,6 +425,71 @@ fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
     print!("{}", crate::bench::run::markdown(&results, &cfg));
     for p in write_outputs(&results, &cfg)? {
         eprintln!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+struct ThroughputArgs {
+    scenes: Vec<String>,
+    terrain_triangles: usize,
+    bounces: Vec<u32>,
+    threads: Vec<usize>,
+    size: (u32, u32),
+    spp: u32,
+    repeats: usize,
+    seed: u64,
+    json: Option<PathBuf>,
+}
+
+fn throughput(a: ThroughputArgs) -> anyhow::Result<()> {
+    use crate::bench::throughput::{job, measure};
+    use std::sync::Arc;
+    let (width, height) = a.size;
+    anyhow::ensure!(width > 0 && height > 0, "--width and --height must be at least 1");
+    let names: Vec<String> =
+        if a.scenes.is_empty() { builtin::names().map(String::from).collect() } else { a.scenes.clone() };
+    let mut scenes = Vec::new();
+    for name in &names {
+        let mut s = builtin::get(name).ok_or_else(|| anyhow::anyhow!("--scenes: no built-in scene {name:?}"))?;
+        if let Some(c) = s.camera.as_mut() {
+            (c.width, c.height) = (width, height);
+        }
+        scenes.push((name.clone(), compile_builder(&s, &SceneLimits::default(), None)?));
+    }
+    if a.terrain_triangles > 0 {
+        scenes.push(("terrain".to_string(), rays::terrain_builder(a.terrain_triangles, width, height)));
+    }
+    println!("Command: {}\n", std::env::args().collect::<Vec<_>>().join(" "));
+    println!("| scene | triangles | bounces | threads | spp | seconds | M samples/s | M rays/s | rays/sample | scaling | same image |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut rows = Vec::new();
+    for (name, builder) in scenes {
+        let scene = Arc::new(builder.build());
+        for &b in &a.bounces {
+            let t = measure(&job(scene.clone(), b, a.seed), a.spp, &a.threads, a.repeats)?;
+            let scaling = t.scaling().map_or("-".to_string(), |s| format!("{s:.2}x"));
+            for m in &t.by_threads {
+                println!(
+                    "| {name} | {} | {b} | {} | {} | {:.3} | {:.2} | {:.2} | {:.2} | {scaling} | {} |",
+                    scene.triangle_count(),
+                    m.threads,
+                    t.spp,
+                    m.seconds,
+                    m.samples_per_second() / 1e6,
+                    m.rays_per_second() / 1e6,
+                    m.rays as f64 / m.samples as f64,
+                    if t.identical { "yes" } else { "NO" }
+                );
+                rows.push(serde_json::json!({"scene": name, "triangles": scene.triangle_count(), "bounces": b,
+                    "threads": m.threads, "spp": t.spp, "width": width, "height": height, "seconds": m.seconds,
+                    "samples": m.samples, "rays": m.rays, "identical": t.identical}));
+            }
+        }
+    }
+    if let Some(path) = a.json {
+        let doc = serde_json::json!({"machine": machine_description(), "rows": rows});
+        std::fs::write(&path, serde_json::to_string_pretty(&doc)?)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     }
     Ok(())
 }

@@ -32,7 +32,7 @@ pub enum Command {
     Scenes,
     /// List the methods (the first is the default).
     Methods,
-    /// Benchmarks: ray throughput, first-frame latency.
+    /// Benchmarks: error against time per method, ray and path throughput, first-frame latency.
     Bench(bench::BenchArgs),
 }
 
@@ -84,8 +84,8 @@ pub struct RenderArgs {
     pub height: Option<u32>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Sampling and filtering method of each pass: aaf (the default), uniform, adaptive,
-    /// uniform-filtered, lobe-aware, normal-aware, auto (`wedge methods` describes them).
+    /// Sampling and filtering method of each pass: auto (the default), aaf, uniform, adaptive,
+    /// uniform-filtered, lobe-aware, normal-aware (`wedge methods` describes them).
     #[arg(long)]
     pub method: Option<String>,
     /// Stop at this mean samples per pixel.
@@ -124,6 +124,10 @@ pub struct RenderArgs {
     /// Leave timings out of the EXR header, so the same render gives the same bytes.
     #[arg(long)]
     pub reproducible: bool,
+    /// Also write the denoiser inputs into the EXR: first-hit albedo (`albedo.R/G/B`), shading
+    /// normal (`normal.X/Y/Z`) and depth (`depth.Z`), for OIDN or another denoiser.
+    #[arg(long)]
+    pub aovs: bool,
     /// Directory that mesh files named by a scene file must lie in (default: the scene's
     /// directory).
     #[arg(long)]

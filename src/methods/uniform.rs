@@ -44,6 +44,7 @@ impl Strategy for Uniform {
             spp: self.film.spp_map(),
             filter_width: None,
             components: Vec::new(),
+            aovs: None,
             stats: FrameStats {
                 // Samples drawn, including any dropped as non-finite (the spp map counts the
                 // ones kept), so a dropped sample cannot keep the spp halt from firing.

@@ -8,7 +8,8 @@
 //! of the light the method sampled separately, `spp.<component>.Y` and
 //! `filter_width.<component>.Y` (so viewers show each map as its own greyscale layer, like
 //! `spp.Y`). The sorted channel list loses the components' order, so the `wedge.components`
-//! attribute lists them.
+//! attribute lists them. When the render traced denoiser inputs: `albedo.R`,`.G`,`.B`,
+//! `normal.X`,`.Y`,`.Z` (world space) and `depth.Z` (scene units, +inf where nothing is hit).
 use std::collections::{BTreeMap, HashMap};
 use std::io::Cursor;
 use std::path::Path;
@@ -24,6 +25,8 @@ use super::exr_attributes::{
 use super::exr_canonical::sort_header_attributes;
 use super::{OutputError, OutputOptions};
 use crate::pipeline::frame::{ComponentMaps, Frame, RenderInfo};
+use crate::render::aovs::Aovs;
+use std::sync::Arc;
 
 /// ZIP over 16-scanline blocks, written in increasing line order: lossless and compact for
 /// float data, and with a fixed block order the parallel compressor's output is deterministic.
@@ -32,6 +35,9 @@ const ENCODING: Encoding =
 
 const RGB: [&str; 3] = ["R", "G", "B"];
 const UNFILTERED_RGB: [&str; 3] = ["unfiltered.R", "unfiltered.G", "unfiltered.B"];
+const ALBEDO: [&str; 3] = ["albedo.R", "albedo.G", "albedo.B"];
+const NORMAL: [&str; 3] = ["normal.X", "normal.Y", "normal.Z"];
+const DEPTH: &str = "depth.Z";
 const SPP: &str = "spp.Y";
 const FILTER_WIDTH: &str = "filter_width.Y";
 
@@ -129,6 +135,14 @@ pub fn read_exr(path: &Path) -> Result<ExrImage, OutputError> {
             Ok(ComponentMaps { spp: required(&spp)?, filter_width: nonzero(required(&filter_width)?), name })
         })
         .collect::<Result<Vec<_>, OutputError>>()?;
+    let (albedo, normal, depth) = (rgb(ALBEDO)?, rgb(NORMAL)?, channel(DEPTH)?);
+    let aovs = (albedo.is_some() || normal.is_some() || depth.is_some()).then(|| {
+        Arc::new(Aovs {
+            albedo: albedo.unwrap_or_default(),
+            normal: normal.unwrap_or_default(),
+            depth: depth.unwrap_or_default(),
+        })
+    });
     let too_large = || not_wedge(format!("image size {width}x{height} exceeds u32"));
     Ok(ExrImage {
         frame: Frame {
@@ -139,6 +153,7 @@ pub fn read_exr(path: &Path) -> Result<ExrImage, OutputError> {
             spp,
             filter_width,
             components,
+            aovs,
             stats,
         },
         info,
@@ -164,7 +179,15 @@ fn check_frame(frame: &Frame) -> Result<(), String> {
             (format!("{} filter-width map", c.name), c.filter_width.as_ref().map(Vec::len)),
         ]
     });
-    let lengths = lengths.into_iter().map(|(what, len)| (what.to_string(), len)).chain(component_lengths);
+    // Denoiser inputs not traced are empty and left out of the file.
+    let aov_lengths = frame.aovs.iter().flat_map(|a| {
+        [("albedo", a.albedo.len()), ("normal", a.normal.len()), ("depth", a.depth.len())]
+            .into_iter()
+            .filter(|&(_, len)| len > 0)
+            .map(|(what, len)| (what.to_string(), Some(len)))
+    });
+    let lengths =
+        lengths.into_iter().map(|(what, len)| (what.to_string(), len)).chain(component_lengths).chain(aov_lengths);
     for (what, len) in lengths {
         if let Some(len) = len.filter(|&len| len != n) {
             return Err(format!("{what} has {len} pixels, expected {}x{}", frame.width, frame.height));
@@ -203,8 +226,25 @@ fn channels(frame: &Frame) -> AnyChannels<FlatSamples> {
         .into_iter()
         .chain(frame.unfiltered.iter().flat_map(|u| rgb_channels(UNFILTERED_RGB, u)))
         .chain([channel(SPP, frame.spp.clone()), channel(FILTER_WIDTH, widths(&frame.filter_width))])
-        .chain(components);
+        .chain(components)
+        .chain(aov_channels(frame));
     AnyChannels::sort(list.collect())
+}
+
+/// The channels of the denoiser inputs the frame has (none, or those traced).
+fn aov_channels(frame: &Frame) -> Vec<AnyChannel<FlatSamples>> {
+    let Some(a) = frame.aovs.as_deref() else { return Vec::new() };
+    let mut list = Vec::new();
+    if !a.albedo.is_empty() {
+        list.extend(rgb_channels(ALBEDO, &a.albedo));
+    }
+    if !a.normal.is_empty() {
+        list.extend(rgb_channels(NORMAL, &a.normal));
+    }
+    if !a.depth.is_empty() {
+        list.push(channel(DEPTH, a.depth.clone()));
+    }
+    list
 }
 
 fn rgb_channels(names: [&str; 3], pixels: &[[f32; 3]]) -> [AnyChannel<FlatSamples>; 3] {
@@ -284,6 +324,7 @@ mod tests {
                     filter_width: (c < 2).then(|| (0..n).map(|i| value(i + c, 1)).collect()),
                 })
                 .collect(),
+            aovs: None,
             stats: FrameStats {
                 pass: 3,
                 mean_spp: 7.75,
@@ -336,6 +377,45 @@ mod tests {
             assert_eq!(read.frame.stats, written.stats);
             assert_eq!(read.info, info());
         }
+    }
+
+    #[test]
+    fn denoiser_inputs_are_named_layers_and_round_trip() {
+        let dir = TempDir::new("exr_aovs");
+        let path = dir.path().join("f.exr");
+        let mut written = frame(4, 3, true);
+        let n = 12;
+        written.aovs = Some(Arc::new(Aovs {
+            albedo: (0..n).map(|i| [0.1 * i as f32, 0.5, 1.0]).collect(),
+            normal: (0..n).map(|i| [0.0, 1.0, -0.01 * i as f32]).collect(),
+            depth: (0..n).map(|i| if i == 0 { f32::INFINITY } else { i as f32 }).collect(),
+        }));
+        write_exr(&path, &written, &info(), &REPRODUCIBLE).unwrap();
+        let read = read_exr(&path).unwrap().frame;
+        assert_same_pixels(&read, &written);
+        let (r, w) = (read.aovs.as_deref().unwrap(), written.aovs.as_deref().unwrap());
+        assert_eq!(rgb_bits(&r.albedo), rgb_bits(&w.albedo));
+        assert_eq!(rgb_bits(&r.normal), rgb_bits(&w.normal));
+        assert_eq!(bits(&r.depth), bits(&w.depth));
+        // Under the names denoising tools look for.
+        let image = ::exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
+        let names: Vec<String> = image.layer_data[0].channel_data.list.iter().map(|c| c.name.to_string()).collect();
+        for name in ALBEDO.iter().chain(&NORMAL).chain([&DEPTH]) {
+            assert!(names.iter().any(|n| n == name), "{name} missing from {names:?}");
+        }
+        // Without them, no such channels and none read back.
+        write_exr(&path, &frame(4, 3, true), &info(), &REPRODUCIBLE).unwrap();
+        assert!(read_exr(&path).unwrap().frame.aovs.is_none());
+        // Depth alone (a frame assembled from a stream that carried only depth).
+        let mut depth_only = written.clone();
+        depth_only.aovs = Some(Arc::new(Aovs { depth: w.depth.clone(), ..Aovs::default() }));
+        write_exr(&path, &depth_only, &info(), &REPRODUCIBLE).unwrap();
+        let r = read_exr(&path).unwrap().frame.aovs.unwrap();
+        assert!(r.albedo.is_empty() && r.normal.is_empty() && bits(&r.depth) == bits(&w.depth));
+        // A wrong-sized input is refused, not written.
+        let mut bad = written.clone();
+        bad.aovs = Some(Arc::new(Aovs { depth: vec![1.0; 5], ..w.clone() }));
+        assert!(write_exr(&path, &bad, &info(), &REPRODUCIBLE).unwrap_err().to_string().contains("depth"));
     }
 
     #[test]

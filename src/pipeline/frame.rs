@@ -1,4 +1,6 @@
 //! What a pass produces: the displayed image plus the maps the method chose, and run metadata.
+use crate::render::aovs::Aovs;
+use std::sync::Arc;
 
 /// Why a render stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -56,6 +58,9 @@ pub struct Frame {
     /// Per-component maps of methods that sample and filter parts of the light separately
     /// (AAF: `shadow`, `diffuse`, `glossy`); empty for the others. `spp` above is their total.
     pub components: Vec<ComponentMaps>,
+    /// Denoiser inputs (first-hit albedo, normal, depth) when the job asks for them: the same
+    /// for every frame of a render, so shared.
+    pub aovs: Option<Arc<Aovs>>,
     pub stats: FrameStats,
 }
 

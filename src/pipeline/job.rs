@@ -88,6 +88,9 @@ pub struct RenderJob {
     /// Parameters of `auto` (its widths' schedule and the gather); it also reads `aaf`,
     /// `indirect` and `lobe` for the papers' own constants.
     pub auto: AutoOptions,
+    /// Camera rays per pixel of the denoiser inputs (albedo, normal, depth: `render::aovs`),
+    /// traced once before pass 0 and attached to every frame; 0 traces none.
+    pub aov_samples: u32,
 }
 
 impl RenderJob {
@@ -108,6 +111,7 @@ impl RenderJob {
             indirect: IndirectOptions::default(),
             lobe: LobeAwareOptions::default(),
             auto: AutoOptions::default(),
+            aov_samples: 0,
         }
     }
 

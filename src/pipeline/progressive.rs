@@ -5,12 +5,14 @@
 //! whose registry row asks for it, its rays counted once), the rule that pass 0 always
 //! completes (only a cancellation stops it; every method makes it cheap), the deadline of
 //! later passes (a cut pass still ends in a valid estimate of every pixel), and the render's
-//! own error estimate behind the noise-target halt (`noise`).
+//! own error estimate behind the noise-target halt (`noise`), and the denoiser inputs (AOVs)
+//! when the job asks for them.
 use super::frame::{Frame, FrameStats, HaltReason};
 use super::job::{CancelToken, RenderError, RenderJob, StopCheck};
 use super::noise::ErrorEstimate;
 use super::registry::make_strategy;
 use super::strategy::{PassContext, PassOutput};
+use crate::render::aovs::Aovs;
 use crate::render::gbuffer::GBuffer;
 use std::sync::Arc;
 use std::time::Instant;
@@ -31,6 +33,15 @@ pub fn render(
     if gbuffer.is_some() {
         tracing::debug!(seconds = start.elapsed().as_secs_f64(), "G-buffer built");
     }
+    // The denoiser inputs do not change from pass to pass: traced once, shared by every frame.
+    let aovs = (job.aov_samples > 0)
+        .then(|| Arc::new(Aovs::trace(&job.scene, &job.view, job.aov_samples, job.seed, job.pixel_centers)));
+    let aov_rays = if aovs.is_none() {
+        0
+    } else {
+        let per_pixel = if job.pixel_centers { 1 } else { job.aov_samples as u64 };
+        per_pixel * job.width() as u64 * job.height() as u64
+    };
     let mut strategy = make_strategy(job);
     let mut error = ErrorEstimate::default();
     for pass in 0.. {
@@ -43,7 +54,8 @@ pub fn render(
         let PassOutput { mut frame, complete } = strategy.run_pass(&ctx)?;
         let elapsed = start.elapsed();
         tracing::debug!(pass, complete, seconds = elapsed.as_secs_f64(), "pass done");
-        frame.stats.rays_traced += gbuffer_rays;
+        frame.stats.rays_traced += gbuffer_rays + aov_rays;
+        frame.aovs.clone_from(&aovs);
         // A pass the deadline cut left most pixels as they were: the change since the previous
         // frame says little about the error, so a cut frame claims no estimate.
         let estimate = error.update(&frame).filter(|_| complete);

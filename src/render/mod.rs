@@ -3,9 +3,10 @@
 //!
 //! One file per concept: `camera` (the view), `sampler`, `geometry` (triangles and BVH;
 //! `wide_bvh` its traversal), `texture`, `material`, `light`, `scene` (the compiled scene, no
-//! camera), `integrator` (radiance along a path), `gbuffer` (one primary hit per pixel) and
+//! camera), `integrator` (radiance along a path), `gbuffer` (one primary hit per pixel), `aovs` (denoiser inputs) and
 //! `filter` (the G-buffer-guided Gaussian gather the methods filter with); `huge_pages`
 //! allocates large arrays.
+pub mod aovs;
 pub mod camera;
 pub mod filter;
 pub mod frame_basis;

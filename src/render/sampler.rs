@@ -137,7 +137,8 @@ pub struct PixelSampler {
 
 impl PixelSampler {
     /// Sampler for sample `index` (0-based, counted over all passes) of pixel `pixel`.
-    #[inline]
+    #[cfg_attr(not(feature = "stage-symbols"), inline)]
+    #[cfg_attr(feature = "stage-symbols", inline(never))]
     pub fn new(seed: u64, pixel: u32, index: u32) -> Self {
         PixelSampler { key: hash_words(&[seed, pixel as u64]), reversed_index: index.reverse_bits(), pair: 0 }
     }
@@ -149,7 +150,8 @@ impl PixelSampler {
     /// i' = owen(i) (Burley 2020, Listing 3). The steps run on bit-reversed values where they
     /// can, since an Owen scramble is a Laine-Karras permutation of the reversed bits: sobol0
     /// reversed is the identity, and sobol1 reversed is a table lookup.
-    #[inline]
+    #[cfg_attr(not(feature = "stage-symbols"), inline)]
+    #[cfg_attr(feature = "stage-symbols", inline(never))]
     pub fn next_2d(&mut self) -> [f32; 2] {
         let h = mix64(self.key ^ (self.pair as u64).wrapping_mul(0xd1b5_4a32_d192_ed03));
         self.pair += 1;

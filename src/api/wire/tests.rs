@@ -23,6 +23,7 @@ fn test_frame(width: u32, height: u32) -> Frame {
                 filter_width: Some((0..n).map(|i| v(i, 7 + c) * 0.02).collect()),
             })
             .collect(),
+        aovs: None,
         stats: FrameStats {
             pass: 3,
             mean_spp: 12.5,
@@ -46,6 +47,7 @@ fn all_layers(format: PixelFormat) -> OutputSelection {
         unfiltered: true,
         components: true,
         format: format as i32,
+        ..Default::default()
     }
 }
 
@@ -208,6 +210,7 @@ fn default_cap_fits_a_4_mib_client_at_1080p() {
             .iter()
             .map(|name| ComponentMaps { name: name.to_string(), spp: vec![1.0; n], filter_width: None })
             .collect(),
+        aovs: None,
         stats: FrameStats::default(),
     };
     let sel = all_layers(PixelFormat::F32);
@@ -294,7 +297,7 @@ fn malformed_chunks_are_errors() {
     assert!(asm.chunk(c).is_err());
     // Unknown layer in RenderStarted.
     let mut s = started(&frame, &sel);
-    s.layers.push("depth".into());
+    s.layers.push("motion".into());
     assert!(FrameAssembler::new().start(s).is_err());
     // Empty update.
     assert!(fresh().push(RenderUpdate { kind: None }).is_err());
@@ -395,4 +398,41 @@ fn halt_reasons_round_trip_through_the_wire() {
         assert_eq!(halt_reason_from_wire(FrameComplete::from(&stats).halt_reason), r);
     }
     assert_eq!(halt_reason_from_wire(99), HaltReason::None);
+}
+
+/// The denoiser inputs follow the component layers, travel bit-exact in f32, and a frame
+/// without them cannot be sent when the output asks for them.
+#[test]
+fn denoiser_inputs_round_trip() {
+    let mut frame = test_frame(5, 4);
+    let n = 20;
+    frame.aovs = Some(std::sync::Arc::new(Aovs {
+        albedo: (0..n).map(|i| [i as f32 * 0.01, 0.5, 1.0]).collect(),
+        normal: (0..n).map(|i| [0.0, -1.0, i as f32 * 0.05]).collect(),
+        depth: (0..n).map(|i| if i == 3 { f32::INFINITY } else { 10.0 + i as f32 }).collect(),
+    }));
+    let sel = OutputSelection { albedo: true, normal: true, depth: true, ..all_layers(PixelFormat::F32) };
+    let names = layer_names(&sel, COMPONENTS);
+    assert_eq!(names[names.len() - 3..], ["albedo", "normal", "depth"]);
+    assert!(check_frame(&frame, &sel, COMPONENTS).is_ok());
+    for max in [1, DEFAULT_MAX_CHUNK_BYTES] {
+        let back = round_trip(&frame, &sel, max);
+        let (a, b) = (back.aovs.as_deref().unwrap(), frame.aovs.as_deref().unwrap());
+        assert_eq!(bits(&a.albedo), bits(&b.albedo));
+        assert_eq!(bits(&a.normal), bits(&b.normal));
+        assert_eq!(scalar_bits(&a.depth), scalar_bits(&b.depth));
+    }
+    // Depth alone: the others stay empty; nothing asked, nothing assembled.
+    let depth_only = OutputSelection { depth: true, ..Default::default() };
+    assert_eq!(layer_names(&depth_only, COMPONENTS), ["depth"]);
+    let back = round_trip(&frame, &depth_only, DEFAULT_MAX_CHUNK_BYTES);
+    let a = back.aovs.as_deref().unwrap();
+    assert!(a.albedo.is_empty() && a.normal.is_empty() && a.depth.len() == n);
+    assert!(round_trip(&frame, &all_layers(PixelFormat::F32), DEFAULT_MAX_CHUNK_BYTES).aovs.is_none());
+    let mut without = frame.clone();
+    without.aovs = None;
+    assert!(check_frame(&without, &depth_only, COMPONENTS).unwrap_err().contains("denoiser inputs"));
+    let mut short = frame.clone();
+    short.aovs = Some(std::sync::Arc::new(Aovs { depth: vec![1.0; 3], ..(*frame.aovs.clone().unwrap()).clone() }));
+    assert!(check_frame(&short, &depth_only, COMPONENTS).unwrap_err().contains("depth layer has 3 pixels"));
 }

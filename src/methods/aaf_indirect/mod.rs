@@ -413,6 +413,7 @@ impl IndirectStrategy {
             height: self.height as u32,
             color: to_f32(color),
             unfiltered: filters.then(|| to_f32(unfiltered)),
+            aovs: None,
             stats: FrameStats {
                 mean_spp: spp.iter().map(|&s| s as f64).sum::<f64>() / n.max(1) as f64,
                 rays_traced: self.rays,

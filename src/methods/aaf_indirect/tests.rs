@@ -32,6 +32,7 @@ fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64, bounces: u32) 
         indirect: IndirectOptions::default(),
         lobe: Default::default(),
         auto: Default::default(),
+        aov_samples: 0,
     }
 }
 

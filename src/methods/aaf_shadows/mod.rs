@@ -446,6 +446,7 @@ impl ShadowStrategy {
             height: self.height as u32,
             color,
             unfiltered: filters.then_some(unfiltered),
+            aovs: None,
             stats: FrameStats {
                 mean_spp: spp.iter().map(|&s| s as f64).sum::<f64>() / n.max(1) as f64,
                 rays_traced: self.rays,

@@ -70,6 +70,7 @@ fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64) -> RenderJob {
         indirect: Default::default(),
         lobe: Default::default(),
         auto: Default::default(),
+        aov_samples: 0,
     }
 }
 

@@ -310,6 +310,7 @@ impl AutoStrategy {
             height: self.height as u32,
             color,
             unfiltered: Some(unfiltered),
+            aovs: None,
             stats: FrameStats {
                 mean_spp: spp.iter().map(|&s| s as f64).sum::<f64>() / n.max(1) as f64,
                 rays_traced: self.rays,

@@ -54,6 +54,7 @@ fn job(scene: Arc<Scene>, halt: Halt) -> RenderJob {
         indirect: Default::default(),
         lobe: Default::default(),
         auto: Default::default(),
+        aov_samples: 0,
     }
 }
 

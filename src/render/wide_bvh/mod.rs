@@ -19,6 +19,7 @@ use node::Node8;
 use node::{Node4, RayBox, WideNode, LEAF, NO_CHILD};
 use obvhs::bvh2::Bvh2;
 use simd::F4;
+use std::mem::MaybeUninit;
 use tri4::{Ray4, Tri4};
 
 /// Blocks per leaf are counted in three bits.
@@ -235,12 +236,14 @@ impl WideBvh {
         }
         let ray = RayBox::new(o, d);
         let q = Query { blocks: &self.blocks, root: self.root, ray: &ray, tmin, ordered };
-        let mut inline = [Entry { node: 0, t: 0.0 }; INLINE_STACK];
+        // Left uninitialised: the traversal writes every entry before reading it, and clearing
+        // the stack for every ray showed in profiles as a memset.
+        let mut inline = [MaybeUninit::<Entry>::uninit(); INLINE_STACK];
         let mut heap = Vec::new();
-        let stack: &mut [Entry] = if self.stack_need <= INLINE_STACK {
+        let stack: &mut [MaybeUninit<Entry>] = if self.stack_need <= INLINE_STACK {
             &mut inline
         } else {
-            heap.resize(self.stack_need, Entry { node: 0, t: 0.0 });
+            heap.resize(self.stack_need, MaybeUninit::uninit());
             &mut heap
         };
         match &self.nodes {
@@ -273,7 +276,7 @@ impl Query<'_> {
     unsafe fn run_avx2<N: WideNode>(
         &self,
         nodes: &[N],
-        stack: &mut [Entry],
+        stack: &mut [MaybeUninit<Entry>],
         tmax: &mut f32,
         leaf: impl FnMut(&[Tri4], &mut f32) -> bool,
     ) -> bool {
@@ -281,7 +284,8 @@ impl Query<'_> {
         unsafe { self.run(nodes, stack, tmax, leaf) }
     }
 
-    /// The traversal loop. `stack` must hold `stack_need` entries.
+    /// The traversal loop. `stack` must hold `stack_need` entries; entries below `sp` are
+    /// always initialised (each is written when pushed), and only those are read.
     ///
     /// # Safety
     /// The CPU must support `N`'s instruction set (see `WideNode::enter`).
@@ -289,7 +293,7 @@ impl Query<'_> {
     unsafe fn run<N: WideNode>(
         &self,
         nodes: &[N],
-        stack: &mut [Entry],
+        stack: &mut [MaybeUninit<Entry>],
         tmax: &mut f32,
         mut leaf: impl FnMut(&[Tri4], &mut f32) -> bool,
     ) -> bool {
@@ -315,7 +319,7 @@ impl Query<'_> {
                 // Several children: push them all, sorted so the nearest is on top, then pop it
                 // straight away.
                 let base = sp;
-                stack[sp] = Entry { node: node.child(first), t: t[first] };
+                stack[sp] = MaybeUninit::new(Entry { node: node.child(first), t: t[first] });
                 sp += 1;
                 while mask != 0 {
                     let lane = mask.trailing_zeros() as usize;
@@ -324,16 +328,16 @@ impl Query<'_> {
                     let mut j = sp;
                     if self.ordered {
                         // Insertion keeping entries in decreasing distance upwards.
-                        while j > base && stack[j - 1].t < e.t {
+                        while j > base && pushed(stack, j - 1).t < e.t {
                             stack[j] = stack[j - 1];
                             j -= 1;
                         }
                     }
-                    stack[j] = e;
+                    stack[j] = MaybeUninit::new(e);
                     sp += 1;
                 }
                 sp -= 1;
-                cur = stack[sp].node;
+                cur = pushed(stack, sp).node;
             }
             if cur != NO_CHILD {
                 let start = ((cur & !LEAF) >> 3) as usize;
@@ -348,7 +352,7 @@ impl Query<'_> {
                     return false;
                 }
                 sp -= 1;
-                let e = stack[sp];
+                let e = pushed(stack, sp);
                 if e.t <= *tmax {
                     cur = e.node;
                     break;
@@ -356,6 +360,13 @@ impl Query<'_> {
             }
         }
     }
+}
+
+/// Stack entry `i`, which the traversal has pushed (every entry below its stack pointer was).
+#[inline(always)]
+fn pushed(stack: &[MaybeUninit<Entry>], i: usize) -> Entry {
+    // SAFETY: `run` reads only entries below its stack pointer, each written when pushed.
+    unsafe { stack[i].assume_init() }
 }
 
 /// Packs the triangles of `slots` into blocks of four; returns the leaf reference.
