@@ -99,6 +99,10 @@ pub fn prepare(
         mesh_root: limits.mesh_root.clone(),
     };
     let compiled = compile(&scene, &scene_limits, base_dir).map_err(|e| name_override(e, req))?;
+    // Checked after compiling, so that a scene's own errors (its camera, say) come first.
+    if scene.shapes.is_empty() && scene.lights.is_empty() {
+        return err("scene", "nothing to render: the scene has no shapes and no lights");
+    }
     // The AAF family keeps running sums per pixel and area light (~150 bytes each): bound the
     // product like the image size, so one request cannot exhaust the server's memory.
     let area_lights =
@@ -462,5 +466,23 @@ mod tests {
         assert!(prepare(&r, &limits, None, "t").is_ok(), "uniform keeps no per-light state");
         r.settings = Some(proto::RenderSettings { method: proto::Method::Aaf as i32, ..Default::default() });
         assert_eq!(prepare(&r, &limits, None, "t").err().map(|e| e.field), Some("settings.method".into()));
+    }
+
+    #[test]
+    fn a_scene_with_nothing_to_render_is_refused() {
+        let mut scene = builtin::get("cornell").unwrap();
+        scene.shapes.clear();
+        let lights = scene.lights.clone();
+        scene.lights.clear();
+        let req = |scene: &proto::Scene| proto::RenderRequest {
+            scene_source: Some(proto::render_request::SceneSource::Scene(scene.clone())),
+            ..Default::default()
+        };
+        let e = prepare(&req(&scene), &Limits::default(), None, "t").err().expect("refused");
+        assert_eq!(e.field, "scene");
+        assert!(e.message.contains("no shapes and no lights"), "{}", e.message);
+        // Lights alone still render (their own surfaces), as do shapes alone (black).
+        scene.lights = lights;
+        assert!(prepare(&req(&scene), &Limits::default(), None, "t").is_ok());
     }
 }

@@ -2,6 +2,7 @@
 //! `render_service` is the `Renderer` service, `catalog` answers `ListScenes`, `state` holds
 //! the counters; health and reflection are registered here.
 pub mod catalog;
+pub mod log_text;
 pub mod render_service;
 pub mod state;
 

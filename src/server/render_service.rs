@@ -1,6 +1,7 @@
 //! The `Renderer` gRPC service: each handler takes a slot, maps the request through
 //! `api::request::prepare`, and hands the job to `runner` with a sink that puts frames on the
 //! wire (`api::wire`).
+use super::log_text::Escaped;
 use super::state::{RenderOutcome, ServerState};
 use super::ServerConfig;
 use crate::api::request::{self, Limits, PreparedJob};
@@ -13,6 +14,7 @@ use crate::proto::{
     ListScenesResponse, OutputSelection, PixelFormat, RenderRequest, RenderStarted, RenderUpdate,
 };
 use crate::runner::{self, RunError, RunSummary, Slots};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 use tokio::sync::mpsc;
@@ -32,6 +34,8 @@ pub struct RenderService {
     slots: Slots,
     state: Arc<ServerState>,
     scenes: Arc<ListScenesResponse>,
+    /// The id of the next call, in every log line about it.
+    next_request: AtomicU64,
 }
 
 impl RenderService {
@@ -44,22 +48,23 @@ impl RenderService {
             slots: Slots::new(config.max_concurrent_renders),
             state,
             scenes: Arc::new(super::catalog::builtin_catalog(&config.limits)),
+            next_request: AtomicU64::new(0),
         }
     }
 
     /// Validates the request and compiles its scene, off the async workers (compiling builds
     /// the BVH).
-    async fn prepare(&self, req: RenderRequest, label: &str, peer: &str) -> Result<PreparedJob, Status> {
+    async fn prepare(&self, req: RenderRequest, label: &str, peer: &str, rid: u64) -> Result<PreparedJob, Status> {
         let limits = Arc::clone(&self.limits);
         let prep_label = label.to_string();
         tokio::task::spawn_blocking(move || request::prepare(&req, &limits, limits.mesh_root.as_deref(), &prep_label))
             .await
             .map_err(|e| {
-                warn!(%peer, scene = %label, "scene preparation failed: {e}");
+                warn!(request = rid, %peer, scene = %Escaped(label), "scene preparation failed: {e}");
                 Status::internal("scene preparation failed")
             })?
             .map_err(|e| {
-                warn!(%peer, scene = %label, "rejected render: {e}");
+                warn!(request = rid, %peer, scene = %Escaped(label), "rejected render: {}", Escaped(&e.to_string()));
                 Status::invalid_argument(e.to_string())
             })
     }
@@ -84,20 +89,22 @@ impl Renderer for RenderService {
         let peer = request.remote_addr().map_or_else(|| "unknown".to_string(), |a| a.to_string());
         let req = request.into_inner();
         let label = scene_label(&req);
+        // Every log line of this call carries it, rejections included.
+        let rid = self.next_request.fetch_add(1, Ordering::Relaxed) + 1;
         let (outputs, frame_every) = (req.outputs.unwrap_or_default(), req.frame_every.max(1));
         if PixelFormat::try_from(outputs.format).is_err() {
             let msg = format!("outputs.format: unknown pixel format {}", outputs.format);
-            warn!(%peer, scene = %label, "rejected render: {msg}");
+            warn!(request = rid, %peer, scene = %Escaped(&label), "rejected render: {msg}");
             return Err(Status::invalid_argument(msg));
         }
         let Some(permit) = self.slots.try_acquire() else {
-            warn!(%peer, scene = %label, "rejected render: server busy");
+            warn!(request = rid, %peer, scene = %Escaped(&label), "rejected render: server busy");
             return Err(Status::resource_exhausted(format!(
                 "server busy: all {} render slots are in use (max_concurrent_renders)",
                 self.slots.limit()
             )));
         };
-        let job = self.prepare(req, &label, &peer).await?.job;
+        let job = self.prepare(req, &label, &peer, rid).await?.job;
         let sink = WireSink::new(&job, outputs, self.max_chunk_bytes);
         let (tx, rx) = mpsc::channel::<UpdateResult>(CHANNEL_CAPACITY);
         // The channel is new and empty: this cannot wait.
@@ -108,7 +115,7 @@ impl Renderer for RenderService {
         let id = active.id();
         let h = &job.halt;
         info!(
-            render = id, %peer, scene = %label, width = job.width(), height = job.height(),
+            render = id, request = rid, %peer, scene = %Escaped(&label), width = job.width(), height = job.height(),
             method = job.method.name(), seed = job.seed, triangles = job.scene.triangle_count(),
             max_passes = h.max_passes, max_mean_spp = h.max_mean_spp, time_budget = ?h.time_budget,
             target_error = ?h.target_error, bounces = job.bounces, layers = ?sink.started.layers,
@@ -179,7 +186,7 @@ fn finish(
             drained.then(|| Status::unavailable("the server is shutting down"))
         }
         Err(RunError::Sink(SinkError::Status(s))) => {
-            warn!(render = id, seconds = secs, "render failed: {}", s.message());
+            warn!(render = id, seconds = secs, "render failed: {}", Escaped(s.message()));
             Some(s)
         }
     }
