@@ -199,14 +199,13 @@ def reference(args, mc, path, name, bounces):
 WROTE = re.compile(r"\((\d+) passes, ([0-9.]+) spp, ([0-9.]+) s.*stopped by ([^)]*)\)")
 
 
-def wedge_oidn(path):
+def wedge_oidn(mc, path):
     """OIDN (as for Mitsuba: hdr, quality high, noisy auxiliaries) on a wedge EXR written with
     --aovs: the denoised image and OIDN's seconds."""
     import mitsuba as mi
     import pyoidn
+    color = mc.read_wedge_exr(path).astype(np.float32)
     layers = dict(mi.Bitmap(path).split())
-    key = next(k for k in layers if k in ("<root>", "", "R,G,B") or k.endswith("RGB"))
-    color = np.array(layers[key], dtype=np.float32)[:, :, :3]
     albedo = np.clip(np.array(layers["albedo"], dtype=np.float32), 0, 1)
     normal = np.clip(np.array(layers["normal"], dtype=np.float32), -1, 1)
     t = time.perf_counter()
@@ -240,7 +239,7 @@ def wedge_runs(args, mc, path, bounces, metrics):
                         raise SystemExit(f"{' '.join(cmd)} failed:\n{p.stderr}")
                     seconds = float(m[3])
                     if oidn:
-                        img, denoise_seconds = wedge_oidn(os.path.join(tmp, "final.exr"))
+                        img, denoise_seconds = wedge_oidn(mc, os.path.join(tmp, "final.exr"))
                         seconds += denoise_seconds
                     else:
                         img = mc.read_wedge_exr(os.path.join(tmp, "final.exr"))

@@ -111,7 +111,7 @@ def mitsuba_throughput(args, mc, scene, bounces, threads):
     return float(np.median(times)), sc
 
 
-def efficiency(args, mc, path, scene, bounces, sc):
+def efficiency(args, mc, path, bounces, sc):
     """{renderer: (seconds, mse)} medians over --seeds at --spp on every core."""
     import drjit as dr
     import mitsuba as mi
@@ -199,7 +199,7 @@ def main():
               f"{r['rays'] / r['seconds'] / 1e6:.2f} | {race.f(mit and mit / 1e6, '.2f')} | {race.f(mit and ws / mit, '.2f')} |",
               flush=True)
         if sc is not None and r["threads"] == max(args.threads):
-            eff_rows.append((r["scene"], r["bounces"], efficiency(args, mc, paths[r["scene"]], docs[r["scene"]], r["bounces"], sc)))
+            eff_rows.append((r["scene"], r["bounces"], efficiency(args, mc, paths[r["scene"]], r["bounces"], sc)))
     if eff_rows:
         print(f"\nEfficiency 1 / (MSE x seconds) at {args.spp} spp on every core (medians of {args.seeds} seeds):\n")
         print("| scene | bounces | wedge s | wedge RMSE | Mitsuba s | Mitsuba RMSE | efficiency, wedge / Mitsuba |")

@@ -5,17 +5,17 @@ use crate::api::wire::wants_aovs;
 use crate::pipeline::frame::{CameraInfo, RenderInfo};
 use crate::pipeline::job::{Halt, Integrand, Method, RenderJob};
 use crate::pipeline::registry::DEFAULT_METHOD;
-
-/// Camera rays per pixel of the denoiser inputs when the outputs ask for them: a 2x2
-/// stratified pattern (the first four points of the pixel's sample stream), enough for
-/// antialiased edges at a cost of four camera rays per pixel, once per render.
-pub const AOV_SAMPLES: u32 = 4;
 use crate::proto;
 use crate::scene::fields::{enum_value, err, finite, opt_vec3, FieldResult};
 use crate::scene::{builtin, compile, FieldError, SceneLimits};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
+
+/// Camera rays per pixel of the denoiser inputs when the outputs ask for them: a 2x2
+/// stratified pattern (the first four points of the pixel's sample stream), enough for
+/// antialiased edges at a cost of four camera rays per pixel, once per render.
+pub const AOV_SAMPLES: u32 = 4;
 
 /// The noise target of a render when the request and scene set no halt condition at all: 1%
 /// relative RMSE, by the render's own estimate (`pipeline::noise`).

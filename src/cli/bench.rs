@@ -108,33 +108,7 @@ pub enum BenchKind {
     },
     /// Samples and rays per second of the uniform path tracer per scene, bounce count and
     /// thread count (bench/throughput.py adds Mitsuba 3 and the time per stage).
-    Throughput {
-        /// Built-in scenes (default: every one), plus the procedural terrain.
-        #[arg(long, value_delimiter = ',')]
-        scenes: Vec<String>,
-        /// Triangles of the procedural terrain mesh (0 leaves it out).
-        #[arg(long, default_value_t = 1_000_000)]
-        terrain_triangles: usize,
-        #[arg(long, value_delimiter = ',', default_value = "0,1,3")]
-        bounces: Vec<u32>,
-        #[arg(long, value_delimiter = ',', default_value = "1,2")]
-        threads: Vec<usize>,
-        #[arg(long, default_value_t = 320)]
-        width: u32,
-        #[arg(long, default_value_t = 320)]
-        height: u32,
-        /// Samples per pixel of each timed trace.
-        #[arg(long, default_value_t = 16)]
-        spp: u32,
-        /// Timed traces per point (the median is reported).
-        #[arg(long, default_value_t = 3)]
-        repeats: usize,
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Also write the results as JSON here.
-        #[arg(long)]
-        json: Option<PathBuf>,
-    },
+    Throughput(ThroughputArgs),
     /// The noise-target halt's own error estimate against the true error, per scene, method
     /// and target.
     Noise {
@@ -270,28 +244,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        BenchKind::Throughput {
-            scenes,
-            terrain_triangles,
-            bounces,
-            threads,
-            width,
-            height,
-            spp,
-            repeats,
-            seed,
-            json,
-        } => throughput(ThroughputArgs {
-            scenes,
-            terrain_triangles,
-            bounces,
-            threads,
-            size: (width, height),
-            spp,
-            repeats,
-            seed,
-            json,
-        }),
+        BenchKind::Throughput(args) => throughput(args),
         BenchKind::Noise { scenes, width, height, targets, methods, reference_spp } => {
             use crate::bench::noise;
             use crate::pipeline::job::Method;
@@ -429,22 +382,39 @@ fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-struct ThroughputArgs {
+#[derive(Args, Debug)]
+pub struct ThroughputArgs {
+    /// Built-in scenes (default: every one), plus the procedural terrain.
+    #[arg(long, value_delimiter = ',')]
     scenes: Vec<String>,
+    /// Triangles of the procedural terrain mesh (0 leaves it out).
+    #[arg(long, default_value_t = 1_000_000)]
     terrain_triangles: usize,
+    #[arg(long, value_delimiter = ',', default_value = "0,1,3")]
     bounces: Vec<u32>,
+    #[arg(long, value_delimiter = ',', default_value = "1,2")]
     threads: Vec<usize>,
-    size: (u32, u32),
+    #[arg(long, default_value_t = 320)]
+    width: u32,
+    #[arg(long, default_value_t = 320)]
+    height: u32,
+    /// Samples per pixel of each timed trace.
+    #[arg(long, default_value_t = 16)]
     spp: u32,
+    /// Timed traces per point (the median is reported).
+    #[arg(long, default_value_t = 3)]
     repeats: usize,
+    #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Also write the results as JSON here.
+    #[arg(long)]
     json: Option<PathBuf>,
 }
 
 fn throughput(a: ThroughputArgs) -> anyhow::Result<()> {
     use crate::bench::throughput::{job, measure};
     use std::sync::Arc;
-    let (width, height) = a.size;
+    let (width, height) = (a.width, a.height);
     anyhow::ensure!(width > 0 && height > 0, "--width and --height must be at least 1");
     let names: Vec<String> =
         if a.scenes.is_empty() { builtin::names().map(String::from).collect() } else { a.scenes.clone() };

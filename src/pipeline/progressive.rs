@@ -36,12 +36,9 @@ pub fn render(
     // The denoiser inputs do not change from pass to pass: traced once, shared by every frame.
     let aovs = (job.aov_samples > 0)
         .then(|| Arc::new(Aovs::trace(&job.scene, &job.view, job.aov_samples, job.seed, job.pixel_centers)));
-    let aov_rays = if aovs.is_none() {
-        0
-    } else {
-        let per_pixel = if job.pixel_centers { 1 } else { job.aov_samples as u64 };
-        per_pixel * job.width() as u64 * job.height() as u64
-    };
+    let aov_rays = aovs.as_ref().map_or(0, |_| {
+        Aovs::rays_per_pixel(job.aov_samples, job.pixel_centers) as u64 * job.width() as u64 * job.height() as u64
+    });
     let mut strategy = make_strategy(job);
     let mut error = ErrorEstimate::default();
     for pass in 0.. {

@@ -30,11 +30,21 @@ pub struct Aovs {
 }
 
 impl Aovs {
+    /// Camera rays per pixel `trace` spends for `samples` asked: one through the centre with
+    /// pixel centres (every ray would be the same), else `samples` (at least 1).
+    pub fn rays_per_pixel(samples: u32, pixel_centers: bool) -> u32 {
+        if pixel_centers {
+            1
+        } else {
+            samples.max(1)
+        }
+    }
+
     /// The AOVs of `view` (internal frame) of `scene`, each pixel the mean of `samples` camera
     /// rays (at least 1) placed by the sample stream of `seed`, or through the pixel centres.
     pub fn trace(scene: &Scene, view: &Camera, samples: u32, seed: u64, pixel_centers: bool) -> Aovs {
         let (w, h) = (view.width as usize, view.height as usize);
-        let samples = if pixel_centers { 1 } else { samples.max(1) };
+        let samples = Self::rays_per_pixel(samples, pixel_centers);
         let per_pixel: Vec<([f32; 3], [f32; 3], f32)> = (0..w * h)
             .into_par_iter()
             .with_min_len(w.max(1))
