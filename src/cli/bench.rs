@@ -156,6 +156,24 @@ fn layouts(leaf: LeafCost) -> [(&'static str, BvhLayout); 4] {
     ]
 }
 
+/// The built-in scenes `names` at `width` x `height`, compiled up to their BVH (which the
+/// benchmarks build themselves); an unknown name is an error naming `flag`.
+fn builtin_builders(
+    names: &[String],
+    (width, height): (u32, u32),
+    flag: &str,
+) -> anyhow::Result<Vec<(String, crate::render::scene::SceneBuilder)>> {
+    let mut scenes = Vec::new();
+    for name in names {
+        let mut s = builtin::get(name).ok_or_else(|| anyhow::anyhow!("{flag}: no built-in scene {name:?}"))?;
+        if let Some(c) = s.camera.as_mut() {
+            (c.width, c.height) = (width, height);
+        }
+        scenes.push((name.clone(), compile_builder(&s, &SceneLimits::default(), None)?));
+    }
+    Ok(scenes)
+}
+
 /// Parses --leaf-cost NODE,MAX.
 fn parse_leaf_cost(s: &str) -> anyhow::Result<LeafCost> {
     let bad = || anyhow::anyhow!("--leaf-cost {s}: expected NODE,MAX, e.g. 1.5,16 (MAX 1 to 32)");
@@ -180,14 +198,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             };
             println!("| scene | triangles | rays | kind | BVH | 1 thread Mrays/s | 2 threads Mrays/s | hits |");
             println!("|---|---|---|---|---|---|---|---|");
-            let mut scenes = Vec::new();
-            for name in &scene {
-                let mut s = builtin::get(name).ok_or_else(|| anyhow::anyhow!("no built-in scene {name:?}"))?;
-                if let Some(c) = s.camera.as_mut() {
-                    (c.width, c.height) = (width, height);
-                }
-                scenes.push((name.clone(), compile_builder(&s, &SceneLimits::default(), None)?));
-            }
+            let mut scenes = builtin_builders(&scene, (width, height), "--scene")?;
             scenes.push(("terrain".to_string(), rays::terrain_builder(terrain_triangles, width, height)));
             let mut ratios = Vec::new();
             for (name, builder) in scenes {
@@ -418,14 +429,7 @@ fn throughput(a: ThroughputArgs) -> anyhow::Result<()> {
     anyhow::ensure!(width > 0 && height > 0, "--width and --height must be at least 1");
     let names: Vec<String> =
         if a.scenes.is_empty() { builtin::names().map(String::from).collect() } else { a.scenes.clone() };
-    let mut scenes = Vec::new();
-    for name in &names {
-        let mut s = builtin::get(name).ok_or_else(|| anyhow::anyhow!("--scenes: no built-in scene {name:?}"))?;
-        if let Some(c) = s.camera.as_mut() {
-            (c.width, c.height) = (width, height);
-        }
-        scenes.push((name.clone(), compile_builder(&s, &SceneLimits::default(), None)?));
-    }
+    let mut scenes = builtin_builders(&names, (width, height), "--scenes")?;
     if a.terrain_triangles > 0 {
         scenes.push(("terrain".to_string(), rays::terrain_builder(a.terrain_triangles, width, height)));
     }
