@@ -89,11 +89,12 @@ pub fn run<E>(
     }
 }
 
-/// Runs `task` (which should call `run`) on a blocking thread holding `permit`, and cancels it
+/// Runs `task` (which should call `run`) on a blocking thread holding `permit` (whatever holds
+/// its render slot), and cancels it
 /// when `stop` completes first (the client went away, the server is draining). Resolves to
 /// the task's result and, when `stop` fired, what it said.
 pub async fn spawn<T: Send + 'static, S>(
-    permit: OwnedSemaphorePermit,
+    permit: impl Send + 'static,
     cancel: CancelToken,
     stop: impl Future<Output = S>,
     task: impl FnOnce() -> T + Send + 'static,

@@ -62,12 +62,18 @@ pub struct ServeArgs {
     /// Largest streamed chunk in bytes (clients' default receive limit is 4 MiB).
     #[arg(long, default_value_t = 1 << 20)]
     pub max_chunk_bytes: usize,
-    /// Largest request in bytes (inline scenes with big meshes need more than gRPC's 4 MiB).
-    #[arg(long, default_value_t = 256 << 20)]
+    /// Largest request in bytes; larger ones get RESOURCE_EXHAUSTED. The default takes an inline
+    /// mesh of a million triangles; a render's peak memory is about 20x its request.
+    #[arg(long, default_value_t = crate::server::DEFAULT_MAX_REQUEST_BYTES)]
     pub max_request_bytes: usize,
-    /// Seconds in-flight renders may run on after SIGINT/SIGTERM before they are cancelled.
+    /// Seconds in-flight calls may run on after SIGINT/SIGTERM; then every stream still open
+    /// (renders, health watches) ends with UNAVAILABLE and the process exits.
     #[arg(long, default_value_t = 10.0)]
     pub shutdown_grace: f64,
+    /// Seconds a render may wait for a client that has stopped reading before it is cancelled
+    /// with DEADLINE_EXCEEDED and its slot freed.
+    #[arg(long, default_value_t = 30.0)]
+    pub stall_timeout: f64,
 }
 
 /// What to render and how: shared by `render` and `client`.

@@ -17,9 +17,20 @@ pub fn run(a: ServeArgs) -> anyhow::Result<()> {
         max_concurrent_renders: a.max_concurrent.max(1),
         max_chunk_bytes: a.max_chunk_bytes,
         max_request_bytes: a.max_request_bytes,
-        shutdown_grace: std::time::Duration::try_from_secs_f64(a.shutdown_grace.max(0.0))
-            .map_err(|e| anyhow::anyhow!("--shutdown-grace {}: {e}", a.shutdown_grace))?,
+        shutdown_grace: seconds("--shutdown-grace", a.shutdown_grace)?,
+        stall_timeout: seconds("--stall-timeout", a.stall_timeout)?,
     };
     let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
-    runtime.block_on(serve(config, shutdown_signal()))
+    let result = runtime.block_on(serve(config, shutdown_signal()));
+    // Renders were cancelled when the grace period ended; do not wait on a stuck thread.
+    runtime.shutdown_timeout(std::time::Duration::from_secs(2));
+    result
+}
+
+/// A duration option in seconds: finite and not negative.
+fn seconds(option: &str, value: f64) -> anyhow::Result<std::time::Duration> {
+    if !(value >= 0.0) {
+        anyhow::bail!("{option} {value}: must be a number of seconds, at least 0");
+    }
+    std::time::Duration::try_from_secs_f64(value).map_err(|e| anyhow::anyhow!("{option} {value}: {e}"))
 }

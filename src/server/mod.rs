@@ -1,13 +1,16 @@
 //! gRPC layer: a thin tonic server around the render core. `frames` puts frames on the wire,
 //! `render_service` is the `Renderer` service, `catalog` answers `ListScenes`, `state` holds
 //! the counters; health and reflection are registered here.
+pub mod admission;
 pub mod catalog;
 pub mod log_text;
 pub mod render_service;
+pub mod shutdown;
 pub mod state;
 
 pub use crate::api::wire::{FrameAssembler, DEFAULT_MAX_CHUNK_BYTES};
 pub use render_service::RenderService;
+pub use shutdown::shutdown_signal;
 pub use state::ServerState;
 
 use crate::proto::renderer_server::RendererServer;
@@ -20,6 +23,14 @@ use tonic::transport::server::TcpIncoming;
 use tonic::transport::Server;
 use tonic_health::ServingStatus;
 
+/// After the grace period, how long streams have to deliver their UNAVAILABLE status before
+/// the server stops waiting for their connections.
+const CLOSE_AFTER_DRAIN: Duration = Duration::from_millis(500);
+
+/// The largest request by default: enough for an inline mesh of a million triangles with
+/// normals and texture coordinates (24 MiB on the wire; see `bench/request_memory.py`).
+pub const DEFAULT_MAX_REQUEST_BYTES: usize = 32 << 20;
+
 /// Where and how `wedge serve` listens.
 #[derive(Clone, Debug)]
 pub struct ServerConfig {
@@ -29,11 +40,15 @@ pub struct ServerConfig {
     pub max_concurrent_renders: usize,
     /// Cap on the pixel bytes of one streamed chunk (at least one row is always sent).
     pub max_chunk_bytes: usize,
-    /// Largest request (inline scene) accepted, in bytes.
+    /// Largest request message (inline scene) accepted, in bytes; larger ones get
+    /// RESOURCE_EXHAUSTED before they are buffered.
     pub max_request_bytes: usize,
     /// After a shutdown signal, how long in-flight renders may run on before they are
     /// cancelled (their clients get UNAVAILABLE).
     pub shutdown_grace: Duration,
+    /// A render whose client has not accepted a message for this long is cancelled and its
+    /// slot freed (the client reads slower than nothing).
+    pub stall_timeout: Duration,
 }
 
 impl Default for ServerConfig {
@@ -43,8 +58,9 @@ impl Default for ServerConfig {
             limits: crate::api::request::Limits::default(),
             max_concurrent_renders: 2,
             max_chunk_bytes: DEFAULT_MAX_CHUNK_BYTES,
-            max_request_bytes: 256 << 20,
+            max_request_bytes: DEFAULT_MAX_REQUEST_BYTES,
             shutdown_grace: Duration::from_secs(10),
+            stall_timeout: Duration::from_secs(30),
         }
     }
 }
@@ -83,7 +99,9 @@ pub async fn serve_on(
         .build_v1()
         .context("building the reflection service")?;
 
+    // The signal starts the graceful drain; `ended` then fires when the grace period is over.
     let grace = config.shutdown_grace;
+    let (ended_tx, ended_rx) = tokio::sync::oneshot::channel::<()>();
     let signal = async move {
         shutdown.await;
         tracing::info!(
@@ -92,16 +110,27 @@ pub async fn serve_on(
         );
         health.set_not_serving::<RendererServer<RenderService>>().await;
         health.set_service_status("", ServingStatus::NotServing).await;
-        // Renders still running when the grace period ends are cancelled, so shutdown never
-        // waits for a long time budget.
         tokio::spawn(async move {
             tokio::time::sleep(grace).await;
-            if drain_state.active_renders() > 0 {
-                tracing::warn!(renders = drain_state.active_renders(), "grace period over: cancelling renders");
-            }
-            drain_state.begin_drain();
+            let _ = ended_tx.send(());
         });
     };
+    // Renders still running when the grace period ends are cancelled and every open stream
+    // ends with UNAVAILABLE, so shutdown never waits for a long time budget or a health watch.
+    let state_at_end = Arc::clone(&drain_state);
+    let state_after = Arc::clone(&drain_state);
+    let grace_over = async move {
+        if ended_rx.await.is_err() {
+            return std::future::pending().await;
+        }
+        let renders = state_at_end.active_renders();
+        tracing::warn!(renders, "grace period over: ending every open stream with UNAVAILABLE");
+        state_at_end.begin_drain();
+        // Time for the UNAVAILABLE trailers to reach clients that still read; connections of
+        // clients that do not are closed when the server returns.
+        tokio::time::sleep(CLOSE_AFTER_DRAIN).await;
+    };
+    let slots = service.slots();
     let incoming = TcpIncoming::from(listener).with_nodelay(Some(true)).with_keepalive(Some(Duration::from_secs(60)));
 
     tracing::info!(
@@ -111,47 +140,27 @@ pub async fn serve_on(
         limits = ?config.limits,
         "serving wedge.v1.Renderer"
     );
-    Server::builder()
+    let server = Server::builder()
         // Notice clients that vanished without closing the connection, so their renders stop.
         .http2_keepalive_interval(Some(Duration::from_secs(30)))
         .http2_keepalive_timeout(Some(Duration::from_secs(20)))
+        .layer(shutdown::EndStreamsLayer::new(drain_state))
+        .layer(admission::AdmissionLayer::new(slots, config.max_request_bytes))
         .add_service(health_service)
         .add_service(reflection)
         // Inline scenes can be large: accept requests up to the configured size (replies are
         // chunked, so the 4 MiB default of clients is never an issue in that direction).
         .add_service(RendererServer::new(service).max_decoding_message_size(config.max_request_bytes))
-        .serve_with_incoming_shutdown(incoming, signal)
-        .await
-        .context("gRPC server failed")?;
+        .serve_with_incoming_shutdown(incoming, signal);
+    tokio::select! {
+        result = server => result.context("gRPC server failed")?,
+        () = grace_over => tracing::warn!("connections still open after the grace period: closing them"),
+    }
+    // Cancelled renders stop at their next check; wait for their threads (bounded), so that
+    // the caller sees every slot free when this returns.
+    if tokio::time::timeout(CLOSE_AFTER_DRAIN, state_after.renders_ended()).await.is_err() {
+        tracing::warn!(renders = state_after.active_renders(), "renders still winding down at exit");
+    }
     tracing::info!("server stopped");
     Ok(())
-}
-
-/// Resolves on SIGINT (Ctrl-C) or, on Unix, SIGTERM.
-pub async fn shutdown_signal() {
-    let ctrl_c = async {
-        if let Err(e) = tokio::signal::ctrl_c().await {
-            tracing::warn!("cannot listen for Ctrl-C: {e}");
-            std::future::pending::<()>().await;
-        }
-    };
-    #[cfg(unix)]
-    let term = async {
-        use tokio::signal::unix::{signal, SignalKind};
-        match signal(SignalKind::terminate()) {
-            Ok(mut s) => {
-                s.recv().await;
-            }
-            Err(e) => {
-                tracing::warn!("cannot listen for SIGTERM: {e}");
-                std::future::pending::<()>().await;
-            }
-        }
-    };
-    #[cfg(not(unix))]
-    let term = std::future::pending::<()>();
-    tokio::select! {
-        () = ctrl_c => tracing::info!("received SIGINT"),
-        () = term => tracing::info!("received SIGTERM"),
-    }
 }

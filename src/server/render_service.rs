@@ -1,6 +1,7 @@
 //! The `Renderer` gRPC service: each handler takes a slot, maps the request through
 //! `api::request::prepare`, and hands the job to `runner` with a sink that puts frames on the
 //! wire (`api::wire`).
+use super::admission::{RenderSlot, RequestId};
 use super::log_text::Escaped;
 use super::state::{RenderOutcome, ServerState};
 use super::ServerConfig;
@@ -14,16 +15,16 @@ use crate::proto::{
     ListScenesResponse, OutputSelection, PixelFormat, RenderRequest, RenderStarted, RenderUpdate,
 };
 use crate::runner::{self, RunError, RunSummary, Slots};
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::{Request, Response, Status};
 use tracing::{info, warn};
 
 /// Messages buffered between the render thread and the client: a slow client holds the render
-/// back instead of letting frames pile up in memory.
+/// back instead of letting frames pile up in memory. One more place is reserved up front for
+/// the final status, so that it can always be queued behind the frames.
 const CHANNEL_CAPACITY: usize = 4;
 
 type UpdateResult = Result<RenderUpdate, Status>;
@@ -31,11 +32,10 @@ type UpdateResult = Result<RenderUpdate, Status>;
 pub struct RenderService {
     limits: Arc<Limits>,
     max_chunk_bytes: usize,
+    stall_timeout: Duration,
     slots: Slots,
     state: Arc<ServerState>,
     scenes: Arc<ListScenesResponse>,
-    /// The id of the next call, in every log line about it.
-    next_request: AtomicU64,
 }
 
 impl RenderService {
@@ -45,11 +45,16 @@ impl RenderService {
         RenderService {
             limits: Arc::new(config.limits.clone()),
             max_chunk_bytes: config.max_chunk_bytes.max(1),
+            stall_timeout: config.stall_timeout,
             slots: Slots::new(config.max_concurrent_renders),
             state,
             scenes: Arc::new(super::catalog::builtin_catalog(&config.limits)),
-            next_request: AtomicU64::new(0),
         }
+    }
+
+    /// The render slots; `admission` takes them before a request is read.
+    pub fn slots(&self) -> Slots {
+        self.slots.clone()
     }
 
     /// Validates the request and compiles its scene, off the async workers (compiling builds
@@ -85,32 +90,31 @@ fn update(kind: render_update::Kind) -> UpdateResult {
 impl Renderer for RenderService {
     type RenderStream = ReceiverStream<UpdateResult>;
 
-    async fn render(&self, request: Request<RenderRequest>) -> Result<Response<Self::RenderStream>, Status> {
+    async fn render(&self, mut request: Request<RenderRequest>) -> Result<Response<Self::RenderStream>, Status> {
         let peer = request.remote_addr().map_or_else(|| "unknown".to_string(), |a| a.to_string());
+        // Every log line of this call carries its id, rejections included.
+        let rid = request.extensions().get::<RequestId>().map_or(0, |id| id.0);
+        // Taken by `admission` before the request was read; without that layer, taken here.
+        let slot = request.extensions_mut().remove::<RenderSlot>();
         let req = request.into_inner();
         let label = scene_label(&req);
-        // Every log line of this call carries it, rejections included.
-        let rid = self.next_request.fetch_add(1, Ordering::Relaxed) + 1;
         let (outputs, frame_every) = (req.outputs.unwrap_or_default(), req.frame_every.max(1));
         if PixelFormat::try_from(outputs.format).is_err() {
             let msg = format!("outputs.format: unknown pixel format {}", outputs.format);
             warn!(request = rid, %peer, scene = %Escaped(&label), "rejected render: {msg}");
             return Err(Status::invalid_argument(msg));
         }
-        let Some(permit) = self.slots.try_acquire() else {
+        let Some(permit) = slot.map(|s| s.0).or_else(|| self.slots.try_acquire().map(Arc::new)) else {
             warn!(request = rid, %peer, scene = %Escaped(&label), "rejected render: server busy");
-            return Err(Status::resource_exhausted(format!(
-                "server busy: all {} render slots are in use (max_concurrent_renders)",
-                self.slots.limit()
-            )));
+            return Err(super::admission::busy(&self.slots));
         };
         let job = self.prepare(req, &label, &peer, rid).await?.job;
-        let sink = WireSink::new(&job, outputs, self.max_chunk_bytes);
-        let (tx, rx) = mpsc::channel::<UpdateResult>(CHANNEL_CAPACITY);
-        // The channel is new and empty: this cannot wait.
-        tx.send(update(render_update::Kind::Started(sink.started.clone())))
-            .await
-            .map_err(|_| Status::cancelled("client went away"))?;
+        let sink = WireSink::new(&job, outputs, self);
+        let (tx, rx) = mpsc::channel::<UpdateResult>(CHANNEL_CAPACITY + 1);
+        // The channel is new and empty: neither can wait.
+        let gone = || Status::cancelled("client went away");
+        let final_status = tx.clone().reserve_owned().await.map_err(|_| gone())?;
+        tx.send(update(render_update::Kind::Started(sink.started.clone()))).await.map_err(|_| gone())?;
         let mut active = self.state.begin_render();
         let id = active.id();
         let h = &job.halt;
@@ -141,10 +145,10 @@ impl Renderer for RenderService {
             })
             .await;
             let drained = stopped == Some(true);
-            let status = finish(id, &mut active, result, drained);
-            if let Some(status) = status {
-                // Fails only when the client is gone already.
-                let _ = tx.send(Err(status)).await;
+            if let Some(status) = finish(id, &mut active, result, drained) {
+                // Queued behind the frames without waiting (its place was reserved), so a
+                // stalled client cannot hold this task either.
+                final_status.send(Err(status));
             }
         });
         Ok(Response::new(ReceiverStream::new(rx)))
@@ -185,6 +189,19 @@ fn finish(
             info!(render = id, seconds = secs, drained, "render cancelled");
             drained.then(|| Status::unavailable("the server is shutting down"))
         }
+        Err(RunError::Sink(SinkError::Stalled(after))) => {
+            active.set_outcome(RenderOutcome::Cancelled);
+            warn!(
+                render = id,
+                seconds = secs,
+                stall_timeout = after.as_secs_f64(),
+                "client stopped reading: render cancelled, slot freed"
+            );
+            Some(Status::deadline_exceeded(format!(
+                "the client accepted no message for {} s (stall timeout): render cancelled",
+                after.as_secs_f64()
+            )))
+        }
         Err(RunError::Sink(SinkError::Status(s))) => {
             warn!(render = id, seconds = secs, "render failed: {}", Escaped(s.message()));
             Some(s)
@@ -195,6 +212,8 @@ fn finish(
 #[derive(Debug)]
 enum SinkError {
     ClientGone,
+    /// The client accepted no message for this long.
+    Stalled(Duration),
     Status(Status),
 }
 
@@ -205,10 +224,16 @@ struct WireSink {
     /// The job's `component_names`, as announced in `RenderStarted.layers`.
     components: Vec<&'static str>,
     max_chunk_bytes: usize,
+    stall_timeout: Duration,
+    /// Draining ends the wait for a slow client at once.
+    state: Arc<ServerState>,
+    /// The server's runtime: the render thread waits for channel space on its timer.
+    runtime: tokio::runtime::Handle,
 }
 
 impl WireSink {
-    fn new(job: &crate::pipeline::job::RenderJob, outputs: OutputSelection, max_chunk_bytes: usize) -> WireSink {
+    /// A sink for `job` with the service's chunk size and stall timeout; call it on the runtime.
+    fn new(job: &crate::pipeline::job::RenderJob, outputs: OutputSelection, service: &RenderService) -> WireSink {
         // Known before rendering, so that `RenderStarted` can announce every layer.
         let components = component_names(job);
         let started = RenderStarted {
@@ -220,7 +245,33 @@ impl WireSink {
             layers: wire::layer_names(&outputs, &components),
             format: outputs.format,
         };
-        WireSink { started, outputs, components, max_chunk_bytes }
+        WireSink {
+            started,
+            outputs,
+            components,
+            max_chunk_bytes: service.max_chunk_bytes,
+            stall_timeout: service.stall_timeout,
+            state: Arc::clone(&service.state),
+            runtime: tokio::runtime::Handle::current(),
+        }
+    }
+
+    /// Queues one message, waiting while the channel is full: at most the stall timeout, and
+    /// not at all once the server drains (the client may never read again).
+    fn push(&self, tx: &mpsc::Sender<UpdateResult>, kind: render_update::Kind) -> Result<(), SinkError> {
+        self.runtime.block_on(async {
+            tokio::select! {
+                space = tokio::time::timeout(self.stall_timeout, tx.reserve()) => match space {
+                    Ok(Ok(permit)) => {
+                        permit.send(update(kind));
+                        Ok(())
+                    }
+                    Ok(Err(_)) => Err(SinkError::ClientGone),
+                    Err(_) => Err(SinkError::Stalled(self.stall_timeout)),
+                },
+                () = self.state.drained() => Err(SinkError::ClientGone),
+            }
+        })
     }
 
     /// Streams one frame: its chunks, then `FrameComplete`. Blocks while the channel is full.
@@ -238,9 +289,8 @@ impl WireSink {
         let rows = wire::rows_per_chunk(frame.width, sel, components, self.max_chunk_bytes);
         for (y0, n) in wire::chunk_bands(frame.height, rows) {
             let chunk = wire::encode_rows(frame, sel, components, y0, n);
-            tx.blocking_send(update(render_update::Kind::Chunk(chunk))).map_err(|_| SinkError::ClientGone)?;
+            self.push(tx, render_update::Kind::Chunk(chunk))?;
         }
-        let complete = FrameComplete::from(&frame.stats);
-        tx.blocking_send(update(render_update::Kind::FrameComplete(complete))).map_err(|_| SinkError::ClientGone)
+        self.push(tx, render_update::Kind::FrameComplete(FrameComplete::from(&frame.stats)))
     }
 }

@@ -13,6 +13,8 @@ pub struct ServerState {
     /// Set when the shutdown grace period is over: running renders must stop.
     draining: std::sync::atomic::AtomicBool,
     drain: tokio::sync::Notify,
+    /// Signalled whenever the last active render ends.
+    idle: tokio::sync::Notify,
 }
 
 /// How a render task ended.
@@ -68,6 +70,17 @@ impl ServerState {
         notified.await;
     }
 
+    /// Resolves once no render is active (at once if none is).
+    pub async fn renders_ended(&self) {
+        loop {
+            let notified = self.idle.notified();
+            if self.active_renders() == 0 {
+                return;
+            }
+            notified.await;
+        }
+    }
+
     /// Counts a render as started and active until the returned guard is dropped.
     pub fn begin_render(self: &Arc<Self>) -> ActiveRender {
         let id = self.renders_started.fetch_add(1, Ordering::SeqCst) + 1;
@@ -104,7 +117,9 @@ impl Drop for ActiveRender {
             RenderOutcome::Failed => &self.state.renders_failed,
         };
         counter.fetch_add(1, Ordering::SeqCst);
-        self.state.active_renders.fetch_sub(1, Ordering::SeqCst);
+        if self.state.active_renders.fetch_sub(1, Ordering::SeqCst) == 1 {
+            self.state.idle.notify_waiters();
+        }
     }
 }
 
@@ -130,5 +145,21 @@ mod tests {
         assert!(r.is_err());
         assert_eq!(state.active_renders(), 0);
         assert_eq!(state.renders_failed(), 1);
+    }
+
+    #[tokio::test]
+    async fn renders_ended_waits_for_the_last_render() {
+        let state = ServerState::new();
+        state.renders_ended().await;
+        let (a, b) = (state.begin_render(), state.begin_render());
+        let waiter = tokio::spawn({
+            let state = Arc::clone(&state);
+            async move { state.renders_ended().await }
+        });
+        drop(a);
+        tokio::task::yield_now().await;
+        assert!(!waiter.is_finished(), "one render is still active");
+        drop(b);
+        tokio::time::timeout(std::time::Duration::from_secs(5), waiter).await.expect("resolves").unwrap();
     }
 }
