@@ -12,4 +12,7 @@ USER wedge
 EXPOSE 50051
 # Built-in scenes are compiled into the binary, so nothing else is copied.
 ENTRYPOINT ["wedge"]
-CMD ["serve", "--addr", "0.0.0.0:50051"]
+# Beyond loopback wedge serves only with TLS and bearer tokens: mount them at /etc/wedge, e.g.
+#   docker run -p 50051:50051 -v "$PWD/secrets:/etc/wedge:ro" wedge
+# with tls.crt, tls.key (PEM) and tokens (one per line) in ./secrets.
+CMD ["serve", "--addr", "0.0.0.0:50051", "--tls-cert", "/etc/wedge/tls.crt", "--tls-key", "/etc/wedge/tls.key", "--token-file", "/etc/wedge/tokens"]

@@ -162,3 +162,28 @@ fn ambient_occlusion_renders_an_open_fraction() {
     assert!(!o.status.success() && stderr(&o).contains("--ao"), "{}", stderr(&o));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn serve_refuses_an_exposed_address_without_tls_and_a_token() {
+    let o = wedge(&["serve", "--addr", "0.0.0.0:0"]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.contains("refusing to serve on 0.0.0.0:0 without TLS and a bearer token") && e.contains("--insecure"),
+        "{e}"
+    );
+
+    // A token alone is not enough; a token file with a bad token names the file and line.
+    let dir = temp_dir("tokens");
+    let good = dir.join("good");
+    std::fs::write(&good, "# tokens\nthis-is-a-long-enough-token\n").unwrap();
+    let o = wedge(&["serve", "--addr", "0.0.0.0:0", "--token-file", good.to_str().unwrap()]);
+    assert!(stderr(&o).contains("without TLS:"), "{}", stderr(&o));
+    let bad = dir.join("bad");
+    std::fs::write(&bad, "this-is-a-long-enough-token\nshort\n").unwrap();
+    let o = wedge(&["serve", "--token-file", bad.to_str().unwrap()]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("bad: line 2: a token must have at least 16"), "{e}");
+    let o = wedge(&["serve", "--tls-cert", good.to_str().unwrap(), "--tls-key", good.to_str().unwrap()]);
+    assert!(stderr(&o).contains("not a PEM file"), "{}", stderr(&o));
+}

@@ -28,7 +28,7 @@ pub async fn measure(req: proto::RenderRequest, runs: usize, addr: Option<String
         }
     };
     let t = Instant::now();
-    let mut client = connect(&addr).await?;
+    let mut client = connect(&addr.as_str().into()).await?;
     let connect_s = t.elapsed().as_secs_f64();
     let mut times = Vec::new();
     for run in 0..=runs {

@@ -2,7 +2,7 @@
 use super::request::{build_request, resolve_scene, FrameWriter};
 use super::ClientArgs;
 use crate::api::request::Limits;
-use crate::client::RemoteError;
+use crate::client::{RemoteError, Target};
 use crate::pipeline::frame::{CameraInfo, RenderInfo};
 use crate::pipeline::job::Method;
 use crate::proto::{self, render_request::SceneSource};
@@ -23,7 +23,8 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
     let writer = FrameWriter::new(r);
     let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     let mut failure = None;
-    let result = runtime.block_on(crate::client::render_remote(&args.addr, req, |started, frame| {
+    let target = target(&args)?;
+    let result = runtime.block_on(crate::client::render_remote(target, req, |started, frame| {
         if failure.is_some() {
             return;
         }
@@ -51,6 +52,24 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
         return Err(e);
     }
     failure.map_or(Ok(()), Err)
+}
+
+/// The server, its CA and the token to send, from the options and `WEDGE_TOKEN`.
+fn target(args: &ClientArgs) -> anyhow::Result<Target> {
+    let read = |option: &str, path: &std::path::Path| {
+        std::fs::read(path).map_err(|e| anyhow!("{option} {}: {e}", path.display()))
+    };
+    let ca_pem = args.tls_ca.as_deref().map(|p| read("--tls-ca", p)).transpose()?;
+    let token = match &args.token_file {
+        Some(path) => {
+            let text = String::from_utf8(read("--token-file", path)?)
+                .map_err(|_| anyhow!("--token-file {}: not UTF-8 text", path.display()))?;
+            let first = text.lines().map(str::trim).find(|l| !l.is_empty() && !l.starts_with('#'));
+            Some(first.ok_or_else(|| anyhow!("--token-file {}: no token in the file", path.display()))?.to_string())
+        }
+        None => std::env::var(super::serve_cmd::TOKEN_ENV).ok().map(|t| t.trim().to_string()),
+    };
+    Ok(Target { addr: args.addr.clone(), ca_pem, token })
 }
 
 /// Output metadata for a remote render: what the request and its scene say.

@@ -74,6 +74,22 @@ pub struct ServeArgs {
     /// with DEADLINE_EXCEEDED and its slot freed.
     #[arg(long, default_value_t = 30.0)]
     pub stall_timeout: f64,
+    /// TLS certificate chain (PEM); with --tls-key, the server speaks only TLS.
+    #[arg(long, requires = "tls_key")]
+    pub tls_cert: Option<PathBuf>,
+    /// TLS private key (PEM) for --tls-cert.
+    #[arg(long, requires = "tls_cert")]
+    pub tls_key: Option<PathBuf>,
+    /// Bearer tokens, one per line, required on every call but health (the WEDGE_TOKEN
+    /// environment variable adds one more).
+    #[arg(long)]
+    pub token_file: Option<PathBuf>,
+    /// Serve on an address other than loopback without TLS or a token.
+    #[arg(long)]
+    pub insecure: bool,
+    /// Do not serve gRPC server reflection.
+    #[arg(long)]
+    pub no_reflection: bool,
 }
 
 /// What to render and how: shared by `render` and `client`.
@@ -145,6 +161,12 @@ pub struct ClientArgs {
     /// Server address.
     #[arg(long, default_value = "http://127.0.0.1:50051")]
     pub addr: String,
+    /// CA certificate (PEM) to trust for an https:// server (default: the public web roots).
+    #[arg(long)]
+    pub tls_ca: Option<PathBuf>,
+    /// File whose first token is sent as `authorization: Bearer` (default: WEDGE_TOKEN).
+    #[arg(long)]
+    pub token_file: Option<PathBuf>,
     #[command(flatten)]
     pub render: RenderArgs,
 }

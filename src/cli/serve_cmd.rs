@@ -1,7 +1,10 @@
 //! `wedge serve`: the gRPC server with the limits given on the command line.
 use super::ServeArgs;
 use crate::api::request::Limits;
+use crate::server::auth::Tokens;
+use crate::server::exposure::{check_exposure, TlsIdentity};
 use crate::server::{serve, shutdown_signal, ServerConfig};
+use std::path::Path;
 
 pub fn run(a: ServeArgs) -> anyhow::Result<()> {
     let config = ServerConfig {
@@ -19,12 +22,58 @@ pub fn run(a: ServeArgs) -> anyhow::Result<()> {
         max_request_bytes: a.max_request_bytes,
         shutdown_grace: seconds("--shutdown-grace", a.shutdown_grace)?,
         stall_timeout: seconds("--stall-timeout", a.stall_timeout)?,
+        tls: tls_identity(&a)?,
+        tokens: tokens(&a)?,
+        reflection: !a.no_reflection,
     };
+    check_exposure(config.addr, config.tls.is_some(), !config.tokens.is_empty(), a.insecure)
+        .map_err(|e| anyhow::anyhow!(e))?;
+    if a.insecure && !config.addr.ip().is_loopback() {
+        tracing::warn!(addr = %config.addr, "--insecure: serving beyond loopback without TLS or a token");
+    }
     let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     let result = runtime.block_on(serve(config, shutdown_signal()));
     // Renders were cancelled when the grace period ended; do not wait on a stuck thread.
     runtime.shutdown_timeout(std::time::Duration::from_secs(2));
     result
+}
+
+/// The environment variable holding one more bearer token.
+pub const TOKEN_ENV: &str = "WEDGE_TOKEN";
+
+fn read(option: &str, path: &Path) -> anyhow::Result<Vec<u8>> {
+    std::fs::read(path).map_err(|e| anyhow::anyhow!("{option} {}: {e}", path.display()))
+}
+
+fn tls_identity(a: &ServeArgs) -> anyhow::Result<Option<TlsIdentity>> {
+    let (Some(cert), Some(key)) = (&a.tls_cert, &a.tls_key) else { return Ok(None) };
+    let identity = TlsIdentity { cert_pem: read("--tls-cert", cert)?, key_pem: read("--tls-key", key)? };
+    if !identity.cert_pem.starts_with(b"-----BEGIN") {
+        anyhow::bail!("--tls-cert {}: not a PEM file (expected -----BEGIN CERTIFICATE-----)", cert.display());
+    }
+    if !identity.key_pem.starts_with(b"-----BEGIN") {
+        anyhow::bail!("--tls-key {}: not a PEM file (expected -----BEGIN PRIVATE KEY-----)", key.display());
+    }
+    Ok(Some(identity))
+}
+
+fn tokens(a: &ServeArgs) -> anyhow::Result<Tokens> {
+    let mut tokens = match &a.token_file {
+        Some(path) => {
+            let text = String::from_utf8(read("--token-file", path)?)
+                .map_err(|_| anyhow::anyhow!("--token-file {}: not UTF-8 text", path.display()))?;
+            let tokens = Tokens::parse(&text).map_err(|e| anyhow::anyhow!("--token-file {}: {e}", path.display()))?;
+            if tokens.is_empty() {
+                anyhow::bail!("--token-file {}: no token in the file", path.display());
+            }
+            tokens
+        }
+        None => Tokens::default(),
+    };
+    if let Ok(token) = std::env::var(TOKEN_ENV) {
+        tokens.add(token.trim()).map_err(|e| anyhow::anyhow!("{TOKEN_ENV}: {e}"))?;
+    }
+    Ok(tokens)
 }
 
 /// A duration option in seconds: finite and not negative.

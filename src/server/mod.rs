@@ -2,7 +2,9 @@
 //! `render_service` is the `Renderer` service, `catalog` answers `ListScenes`, `state` holds
 //! the counters; health and reflection are registered here.
 pub mod admission;
+pub mod auth;
 pub mod catalog;
+pub mod exposure;
 pub mod log_text;
 pub mod render_service;
 pub mod shutdown;
@@ -49,6 +51,13 @@ pub struct ServerConfig {
     /// A render whose client has not accepted a message for this long is cancelled and its
     /// slot freed (the client reads slower than nothing).
     pub stall_timeout: Duration,
+    /// Serve over TLS with this identity; `None`: plaintext.
+    pub tls: Option<exposure::TlsIdentity>,
+    /// Tokens accepted as `authorization: Bearer <token>` on every call but health; empty:
+    /// no check.
+    pub tokens: auth::Tokens,
+    /// Serve gRPC server reflection (v1 and v1alpha).
+    pub reflection: bool,
 }
 
 impl Default for ServerConfig {
@@ -61,6 +70,9 @@ impl Default for ServerConfig {
             max_request_bytes: DEFAULT_MAX_REQUEST_BYTES,
             shutdown_grace: Duration::from_secs(10),
             stall_timeout: Duration::from_secs(30),
+            tls: None,
+            tokens: auth::Tokens::default(),
+            reflection: true,
         }
     }
 }
@@ -93,11 +105,20 @@ pub async fn serve_on(
 
     let (health, health_service) = tonic_health::server::health_reporter();
     health.set_serving::<RendererServer<RenderService>>().await;
-    let reflection = tonic_reflection::server::Builder::configure()
-        .register_encoded_file_descriptor_set(crate::proto::FILE_DESCRIPTOR_SET)
-        .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
-        .build_v1()
-        .context("building the reflection service")?;
+    // Both versions: grpcurl and grpcui speak v1, Python's grpcio-reflection and older tools
+    // only v1alpha.
+    let reflection = || {
+        tonic_reflection::server::Builder::configure()
+            .register_encoded_file_descriptor_set(crate::proto::FILE_DESCRIPTOR_SET)
+            .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
+    };
+    let (reflection_v1, reflection_v1alpha) = if config.reflection {
+        let v1 = reflection().build_v1().context("building the reflection service")?;
+        let v1alpha = reflection().build_v1alpha().context("building the reflection service")?;
+        (Some(v1), Some(v1alpha))
+    } else {
+        (None, None)
+    };
 
     // The signal starts the graceful drain; `ended` then fires when the grace period is over.
     let grace = config.shutdown_grace;
@@ -138,16 +159,28 @@ pub async fn serve_on(
         max_concurrent_renders = config.max_concurrent_renders,
         max_chunk_bytes = config.max_chunk_bytes,
         limits = ?config.limits,
+        tls = config.tls.is_some(),
+        tokens = config.tokens.len(),
+        reflection = config.reflection,
         "serving wedge.v1.Renderer"
     );
-    let server = Server::builder()
+    let mut builder = Server::builder();
+    if let Some(tls) = &config.tls {
+        let identity = tonic::transport::Identity::from_pem(&tls.cert_pem, &tls.key_pem);
+        builder = builder
+            .tls_config(tonic::transport::ServerTlsConfig::new().identity(identity))
+            .context("TLS certificate and key")?;
+    }
+    let server = builder
         // Notice clients that vanished without closing the connection, so their renders stop.
         .http2_keepalive_interval(Some(Duration::from_secs(30)))
         .http2_keepalive_timeout(Some(Duration::from_secs(20)))
         .layer(shutdown::EndStreamsLayer::new(drain_state))
+        .layer(auth::BearerAuthLayer::new(config.tokens.clone()))
         .layer(admission::AdmissionLayer::new(slots, config.max_request_bytes))
         .add_service(health_service)
-        .add_service(reflection)
+        .add_optional_service(reflection_v1)
+        .add_optional_service(reflection_v1alpha)
         // Inline scenes can be large: accept requests up to the configured size (replies are
         // chunked, so the 4 MiB default of clients is never an issue in that direction).
         .add_service(RendererServer::new(service).max_decoding_message_size(config.max_request_bytes))
