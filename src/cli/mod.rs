@@ -90,6 +90,9 @@ pub struct ServeArgs {
     /// Do not serve gRPC server reflection.
     #[arg(long)]
     pub no_reflection: bool,
+    /// Serve Prometheus metrics at http://ADDR/metrics (off by default).
+    #[arg(long)]
+    pub metrics_addr: Option<SocketAddr>,
 }
 
 /// What to render and how: shared by `render` and `client`.

@@ -25,6 +25,7 @@ pub fn run(a: ServeArgs) -> anyhow::Result<()> {
         tls: tls_identity(&a)?,
         tokens: tokens(&a)?,
         reflection: !a.no_reflection,
+        metrics_addr: a.metrics_addr,
     };
     check_exposure(config.addr, config.tls.is_some(), !config.tokens.is_empty(), a.insecure)
         .map_err(|e| anyhow::anyhow!(e))?;

@@ -3,6 +3,8 @@
 //! times the request size; and no message may exceed `max_request_bytes`, checked on the gRPC
 //! length prefix before a byte of it is buffered, with RESOURCE_EXHAUSTED as gRPC prescribes.
 use super::log_text::Escaped;
+use super::metrics::RejectReason;
+use super::state::ServerState;
 use crate::runner::Slots;
 use bytes::{Buf, Bytes};
 use http_body::{Body as HttpBody, Frame, SizeHint};
@@ -28,13 +30,14 @@ pub struct RequestId(pub u64);
 #[derive(Clone, Debug)]
 pub struct AdmissionLayer {
     slots: Slots,
+    state: Arc<ServerState>,
     max_message_bytes: usize,
     next_request: Arc<AtomicU64>,
 }
 
 impl AdmissionLayer {
-    pub fn new(slots: Slots, max_message_bytes: usize) -> Self {
-        AdmissionLayer { slots, max_message_bytes, next_request: Arc::new(AtomicU64::new(0)) }
+    pub fn new(slots: Slots, max_message_bytes: usize, state: Arc<ServerState>) -> Self {
+        AdmissionLayer { slots, state, max_message_bytes, next_request: Arc::new(AtomicU64::new(0)) }
     }
 }
 
@@ -79,11 +82,13 @@ where
                     .and_then(|c| c.remote_addr())
                     .map_or_else(|| "unknown".to_string(), |a| a.to_string());
                 tracing::warn!(request = id.0, peer = %Escaped(&peer), "rejected render: server busy");
+                self.layer.state.metrics.reject(RejectReason::Busy);
                 return Box::pin(std::future::ready(Ok(busy(&self.layer.slots).into_http())));
             };
             parts.extensions.insert(RenderSlot(Arc::new(permit)));
         }
-        let body = Body::new(MessageSizeLimit::new(body, self.layer.max_message_bytes));
+        let limit = MessageSizeLimit::new(body, self.layer.max_message_bytes, Arc::clone(&self.layer.state));
+        let body = Body::new(limit);
         let response = self.inner.call(http::Request::from_parts(parts, body));
         Box::pin(response)
     }
@@ -111,11 +116,21 @@ struct MessageSizeLimit {
     /// Payload bytes of the current message still to come (after its prefix).
     payload_left: usize,
     failed: bool,
+    /// Counts the refusal.
+    state: Arc<ServerState>,
 }
 
 impl MessageSizeLimit {
-    fn new(inner: Body, limit: usize) -> Self {
-        MessageSizeLimit { inner, limit, prefix: [0; PREFIX_BYTES], prefix_len: 0, payload_left: 0, failed: false }
+    fn new(inner: Body, limit: usize, state: Arc<ServerState>) -> Self {
+        MessageSizeLimit {
+            inner,
+            limit,
+            prefix: [0; PREFIX_BYTES],
+            prefix_len: 0,
+            payload_left: 0,
+            failed: false,
+            state,
+        }
     }
 
     /// Walks the message framing through `data`; an error for the first oversized message.
@@ -165,6 +180,7 @@ impl HttpBody for MessageSizeLimit {
         if let Some(data) = frame.data_ref() {
             if let Err(status) = this.check(data) {
                 this.failed = true;
+                this.state.metrics.reject(RejectReason::TooLarge);
                 return Poll::Ready(Some(Err(status)));
             }
         }
@@ -185,7 +201,7 @@ mod tests {
     use super::*;
 
     fn limiter(limit: usize) -> MessageSizeLimit {
-        MessageSizeLimit::new(Body::empty(), limit)
+        MessageSizeLimit::new(Body::empty(), limit, ServerState::new())
     }
 
     fn message(len: u32) -> Vec<u8> {

@@ -2,6 +2,8 @@
 //! the server's tokens. Only SHA-256 digests of the tokens are kept, and a presented token is
 //! compared against every one of them in constant time, so neither the time taken nor the
 //! length of a token tells a caller how close it came.
+use super::metrics::RejectReason;
+use super::state::ServerState;
 use sha2::{Digest, Sha256};
 use std::fmt;
 use std::sync::Arc;
@@ -82,18 +84,19 @@ impl Tokens {
 #[derive(Clone, Debug)]
 pub struct BearerAuthLayer {
     tokens: Arc<Tokens>,
+    state: Arc<ServerState>,
 }
 
 impl BearerAuthLayer {
-    pub fn new(tokens: Tokens) -> Self {
-        BearerAuthLayer { tokens: Arc::new(tokens) }
+    pub fn new(tokens: Tokens, state: Arc<ServerState>) -> Self {
+        BearerAuthLayer { tokens: Arc::new(tokens), state }
     }
 }
 
 impl<S> tower_layer::Layer<S> for BearerAuthLayer {
     type Service = BearerAuth<S>;
     fn layer(&self, inner: S) -> BearerAuth<S> {
-        BearerAuth { inner, tokens: Arc::clone(&self.tokens) }
+        BearerAuth { inner, tokens: Arc::clone(&self.tokens), state: Arc::clone(&self.state) }
     }
 }
 
@@ -101,6 +104,7 @@ impl<S> tower_layer::Layer<S> for BearerAuthLayer {
 pub struct BearerAuth<S> {
     inner: S,
     tokens: Arc<Tokens>,
+    state: Arc<ServerState>,
 }
 
 type BoxFuture<T> = std::pin::Pin<Box<dyn std::future::Future<Output = T> + Send>>;
@@ -125,6 +129,7 @@ where
             return Box::pin(self.inner.call(req));
         }
         tracing::warn!(path = %super::log_text::Escaped(req.uri().path()), "refused a call without a valid bearer token");
+        self.state.metrics.reject(RejectReason::Unauthenticated);
         let status =
             Status::unauthenticated("a valid bearer token is required (metadata authorization: Bearer <token>)");
         Box::pin(std::future::ready(Ok(status.into_http())))

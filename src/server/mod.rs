@@ -6,6 +6,7 @@ pub mod auth;
 pub mod catalog;
 pub mod exposure;
 pub mod log_text;
+pub mod metrics;
 pub mod render_service;
 pub mod shutdown;
 pub mod state;
@@ -58,6 +59,8 @@ pub struct ServerConfig {
     pub tokens: auth::Tokens,
     /// Serve gRPC server reflection (v1 and v1alpha).
     pub reflection: bool,
+    /// Serve Prometheus metrics at `GET /metrics` on this address; `None`: not at all.
+    pub metrics_addr: Option<SocketAddr>,
 }
 
 impl Default for ServerConfig {
@@ -73,6 +76,7 @@ impl Default for ServerConfig {
             tls: None,
             tokens: auth::Tokens::default(),
             reflection: true,
+            metrics_addr: None,
         }
     }
 }
@@ -152,6 +156,21 @@ pub async fn serve_on(
         tokio::time::sleep(CLOSE_AFTER_DRAIN).await;
     };
     let slots = service.slots();
+    // Dropped (and so stopped) when this function returns.
+    let _metrics = match config.metrics_addr {
+        Some(addr) => {
+            let listener = tokio::net::TcpListener::bind(addr)
+                .await
+                .with_context(|| format!("cannot listen for metrics on {addr}"))?;
+            let bound = listener.local_addr().context("metrics listener has no address")?;
+            state_after.set_metrics_addr(bound);
+            tracing::info!(addr = %bound, "serving Prometheus metrics at /metrics");
+            let state = Arc::clone(&state_after);
+            let task = tokio::spawn(metrics::serve(listener, Arc::new(move || state.metrics.encode())));
+            Some(AbortOnDrop(task))
+        }
+        None => None,
+    };
     let incoming = TcpIncoming::from(listener).with_nodelay(Some(true)).with_keepalive(Some(Duration::from_secs(60)));
 
     tracing::info!(
@@ -176,8 +195,8 @@ pub async fn serve_on(
         .http2_keepalive_interval(Some(Duration::from_secs(30)))
         .http2_keepalive_timeout(Some(Duration::from_secs(20)))
         .layer(shutdown::EndStreamsLayer::new(drain_state))
-        .layer(auth::BearerAuthLayer::new(config.tokens.clone()))
-        .layer(admission::AdmissionLayer::new(slots, config.max_request_bytes))
+        .layer(auth::BearerAuthLayer::new(config.tokens.clone(), Arc::clone(&state_after)))
+        .layer(admission::AdmissionLayer::new(slots, config.max_request_bytes, Arc::clone(&state_after)))
         .add_service(health_service)
         .add_optional_service(reflection_v1)
         .add_optional_service(reflection_v1alpha)
@@ -196,4 +215,13 @@ pub async fn serve_on(
     }
     tracing::info!("server stopped");
     Ok(())
+}
+
+/// Aborts a background task when dropped.
+struct AbortOnDrop(tokio::task::JoinHandle<()>);
+
+impl Drop for AbortOnDrop {
+    fn drop(&mut self) {
+        self.0.abort();
+    }
 }

@@ -3,6 +3,7 @@
 //! wire (`api::wire`).
 use super::admission::{RenderSlot, RequestId};
 use super::log_text::Escaped;
+use super::metrics::RejectReason;
 use super::state::{RenderOutcome, ServerState};
 use super::ServerConfig;
 use crate::api::request::{self, Limits, PreparedJob};
@@ -70,6 +71,7 @@ impl RenderService {
             })?
             .map_err(|e| {
                 warn!(request = rid, %peer, scene = %Escaped(label), "rejected render: {}", Escaped(&e.to_string()));
+                self.state.metrics.reject(RejectReason::Invalid);
                 Status::invalid_argument(e.to_string())
             })
     }
@@ -102,10 +104,12 @@ impl Renderer for RenderService {
         if PixelFormat::try_from(outputs.format).is_err() {
             let msg = format!("outputs.format: unknown pixel format {}", outputs.format);
             warn!(request = rid, %peer, scene = %Escaped(&label), "rejected render: {msg}");
+            self.state.metrics.reject(RejectReason::Invalid);
             return Err(Status::invalid_argument(msg));
         }
         let Some(permit) = slot.map(|s| s.0).or_else(|| self.slots.try_acquire().map(Arc::new)) else {
             warn!(request = rid, %peer, scene = %Escaped(&label), "rejected render: server busy");
+            self.state.metrics.reject(RejectReason::Busy);
             return Err(super::admission::busy(&self.slots));
         };
         let job = self.prepare(req, &label, &peer, rid).await?.job;
@@ -229,6 +233,11 @@ struct WireSink {
     state: Arc<ServerState>,
     /// The server's runtime: the render thread waits for channel space on its timer.
     runtime: tokio::runtime::Handle,
+    /// When the render was accepted, when the last frame went out, and its ray count (for
+    /// the frame latency and ray metrics).
+    accepted: Instant,
+    last_frame: std::cell::Cell<Option<Instant>>,
+    last_rays: std::cell::Cell<u64>,
 }
 
 impl WireSink {
@@ -253,6 +262,9 @@ impl WireSink {
             stall_timeout: service.stall_timeout,
             state: Arc::clone(&service.state),
             runtime: tokio::runtime::Handle::current(),
+            accepted: Instant::now(),
+            last_frame: std::cell::Cell::new(None),
+            last_rays: std::cell::Cell::new(0),
         }
     }
 
@@ -291,6 +303,11 @@ impl WireSink {
             let chunk = wire::encode_rows(frame, sel, components, y0, n);
             self.push(tx, render_update::Kind::Chunk(chunk))?;
         }
-        self.push(tx, render_update::Kind::FrameComplete(FrameComplete::from(&frame.stats)))
+        self.push(tx, render_update::Kind::FrameComplete(FrameComplete::from(&frame.stats)))?;
+        let now = Instant::now();
+        let rays = frame.stats.rays_traced.saturating_sub(self.last_rays.replace(frame.stats.rays_traced));
+        let since_previous = self.last_frame.replace(Some(now)).map(|t| (now - t).as_secs_f64());
+        self.state.metrics.frame_sent((now - self.accepted).as_secs_f64(), since_previous, rays);
+        Ok(())
     }
 }

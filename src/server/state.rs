@@ -1,15 +1,15 @@
 //! Counters shared by the server's handlers and render tasks; tests read them to see that a
 //! cancelled render really stopped.
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use super::metrics::Metrics;
+use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
 #[derive(Debug, Default)]
 pub struct ServerState {
-    active_renders: AtomicUsize,
-    renders_started: AtomicU64,
-    renders_finished: AtomicU64,
-    renders_cancelled: AtomicU64,
-    renders_failed: AtomicU64,
+    /// The counters, exported on `--metrics-addr`.
+    pub metrics: Metrics,
+    /// Where the metrics endpoint listens, once bound.
+    metrics_addr: std::sync::OnceLock<std::net::SocketAddr>,
     /// Set when the shutdown grace period is over: running renders must stop.
     draining: std::sync::atomic::AtomicBool,
     drain: tokio::sync::Notify,
@@ -35,24 +35,33 @@ impl ServerState {
 
     /// Render tasks running now (including ones winding down after a cancellation).
     pub fn active_renders(&self) -> usize {
-        self.active_renders.load(Ordering::SeqCst)
+        usize::try_from(self.metrics.active_renders.get()).unwrap_or(0)
     }
 
     /// Renders started since the server started.
     pub fn renders_started(&self) -> u64 {
-        self.renders_started.load(Ordering::SeqCst)
+        self.metrics.renders_started.get()
     }
 
     pub fn renders_finished(&self) -> u64 {
-        self.renders_finished.load(Ordering::SeqCst)
+        self.metrics.renders_finished.get()
     }
 
     pub fn renders_cancelled(&self) -> u64 {
-        self.renders_cancelled.load(Ordering::SeqCst)
+        self.metrics.renders_cancelled.get()
     }
 
     pub fn renders_failed(&self) -> u64 {
-        self.renders_failed.load(Ordering::SeqCst)
+        self.metrics.renders_failed.get()
+    }
+
+    /// The bound address of the metrics endpoint, if it is served.
+    pub fn metrics_addr(&self) -> Option<std::net::SocketAddr> {
+        self.metrics_addr.get().copied()
+    }
+
+    pub(super) fn set_metrics_addr(&self, addr: std::net::SocketAddr) {
+        let _ = self.metrics_addr.set(addr);
     }
 
     /// Tells every running render to stop (the shutdown grace period is over).
@@ -83,8 +92,8 @@ impl ServerState {
 
     /// Counts a render as started and active until the returned guard is dropped.
     pub fn begin_render(self: &Arc<Self>) -> ActiveRender {
-        let id = self.renders_started.fetch_add(1, Ordering::SeqCst) + 1;
-        self.active_renders.fetch_add(1, Ordering::SeqCst);
+        let id = self.metrics.renders_started.inc() + 1;
+        self.metrics.active_renders.inc();
         ActiveRender { state: Arc::clone(self), id, outcome: RenderOutcome::Failed }
     }
 }
@@ -111,13 +120,14 @@ impl ActiveRender {
 
 impl Drop for ActiveRender {
     fn drop(&mut self) {
+        let m = &self.state.metrics;
         let counter = match self.outcome {
-            RenderOutcome::Finished => &self.state.renders_finished,
-            RenderOutcome::Cancelled => &self.state.renders_cancelled,
-            RenderOutcome::Failed => &self.state.renders_failed,
+            RenderOutcome::Finished => &m.renders_finished,
+            RenderOutcome::Cancelled => &m.renders_cancelled,
+            RenderOutcome::Failed => &m.renders_failed,
         };
-        counter.fetch_add(1, Ordering::SeqCst);
-        if self.state.active_renders.fetch_sub(1, Ordering::SeqCst) == 1 {
+        counter.inc();
+        if m.active_renders.dec() == 1 {
             self.state.idle.notify_waiters();
         }
     }
