@@ -6,9 +6,10 @@ COPY . .
 RUN rustup component add rustfmt clippy && bash .ci/run && cargo build --release --locked
 
 FROM debian:bookworm-slim
-RUN useradd --system --no-create-home wedge
+RUN useradd --system --uid 10001 --no-create-home wedge
 COPY --from=build /src/target/release/wedge /usr/local/bin/wedge
-USER wedge
+# Numeric, so that Kubernetes can check runAsNonRoot.
+USER 10001
 EXPOSE 50051
 # Built-in scenes are compiled into the binary, so nothing else is copied.
 ENTRYPOINT ["wedge"]

@@ -10,27 +10,10 @@ proto in this checkout. Frames arrive as row chunks (each under the default 4 Mi
 limit); this script stitches them into numpy arrays and prints one line per frame.
 """
 import argparse
-import os
-import sys
-import tempfile
 
 import numpy as np
 
-
-def load_stubs():
-    from grpc_tools import protoc
-
-    root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "proto")
-    out = tempfile.mkdtemp(prefix="wedge-stubs-")
-    proto = os.path.join(root, "wedge", "v1", "wedge.proto")
-    include = os.path.join(os.path.dirname(protoc.__file__), "_proto")
-    rc = protoc.main(["protoc", f"-I{root}", f"-I{include}", f"--python_out={out}", f"--grpc_python_out={out}", proto])
-    if rc != 0:
-        sys.exit(f"protoc failed on {proto}")
-    sys.path.insert(0, out)
-    from wedge.v1 import wedge_pb2, wedge_pb2_grpc
-
-    return wedge_pb2, wedge_pb2_grpc
+from wedge_stubs import load_stubs
 
 
 def main():

@@ -124,3 +124,30 @@ async fn reflection_v1alpha_is_served_and_can_be_turned_off() {
     let err = list_services_v1alpha(off.channel().await).await.expect_err("reflection is off");
     assert_eq!(err.code(), Code::Unimplemented);
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_health_port_answers_probes_in_plaintext_and_nothing_else() {
+    let (identity, _) = self_signed();
+    let config = ServerConfig {
+        tls: Some(identity),
+        tokens: Tokens::parse(TOKEN).unwrap(),
+        health_addr: Some("127.0.0.1:0".parse().unwrap()),
+        ..Default::default()
+    };
+    let server = TestServer::with_config(config).await;
+    let ok = wait_until(std::time::Duration::from_secs(30), || server.state.health_addr().is_some()).await;
+    assert!(ok, "the health port is bound");
+    let addr = server.state.health_addr().unwrap();
+    let channel = Endpoint::from_shared(format!("http://{addr}")).unwrap().connect().await.expect("plaintext");
+    let status = HealthClient::new(channel.clone())
+        .check(HealthCheckRequest { service: "wedge.v1.Renderer".into() })
+        .await
+        .expect("a probe needs neither TLS nor a token")
+        .into_inner();
+    assert_eq!(status.status, ServingStatus::Serving as i32);
+    let err = wedge::proto::renderer_client::RendererClient::new(channel)
+        .render(cornell(8, 6, 1, 1))
+        .await
+        .expect_err("no renders on the health port");
+    assert_eq!(err.code(), Code::Unimplemented);
+}

@@ -90,6 +90,14 @@ pub struct ServeArgs {
     /// Do not serve gRPC server reflection.
     #[arg(long)]
     pub no_reflection: bool,
+    /// Seconds after which a connection is asked to close once its calls end (clients then
+    /// reconnect and rebalance across replicas); 0: never.
+    #[arg(long, default_value_t = 300.0)]
+    pub max_connection_age: f64,
+    /// Also serve grpc.health.v1 alone, plaintext and without tokens, on this address (for
+    /// Kubernetes' native gRPC probes, which speak neither TLS nor tokens).
+    #[arg(long)]
+    pub health_addr: Option<SocketAddr>,
     /// Serve Prometheus metrics at http://ADDR/metrics (off by default).
     #[arg(long)]
     pub metrics_addr: Option<SocketAddr>,

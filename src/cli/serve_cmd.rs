@@ -26,6 +26,8 @@ pub fn run(a: ServeArgs) -> anyhow::Result<()> {
         tokens: tokens(&a)?,
         reflection: !a.no_reflection,
         metrics_addr: a.metrics_addr,
+        health_addr: a.health_addr,
+        max_connection_age: Some(seconds("--max-connection-age", a.max_connection_age)?).filter(|d| !d.is_zero()),
     };
     check_exposure(config.addr, config.tls.is_some(), !config.tokens.is_empty(), a.insecure)
         .map_err(|e| anyhow::anyhow!(e))?;

@@ -61,6 +61,12 @@ pub struct ServerConfig {
     pub reflection: bool,
     /// Serve Prometheus metrics at `GET /metrics` on this address; `None`: not at all.
     pub metrics_addr: Option<SocketAddr>,
+    /// Connections older than this are asked to close (HTTP/2 GOAWAY) once their calls end, so
+    /// that clients reconnect and rebalance across replicas; `None`: never.
+    pub max_connection_age: Option<Duration>,
+    /// Also serve `grpc.health.v1` alone, in plaintext and without tokens, on this address:
+    /// for orchestrators' native gRPC probes, which speak neither TLS nor tokens.
+    pub health_addr: Option<SocketAddr>,
 }
 
 impl Default for ServerConfig {
@@ -77,6 +83,8 @@ impl Default for ServerConfig {
             tokens: auth::Tokens::default(),
             reflection: true,
             metrics_addr: None,
+            max_connection_age: Some(Duration::from_secs(300)),
+            health_addr: None,
         }
     }
 }
@@ -156,6 +164,24 @@ pub async fn serve_on(
         tokio::time::sleep(CLOSE_AFTER_DRAIN).await;
     };
     let slots = service.slots();
+    let _health_port = match config.health_addr {
+        Some(addr) => {
+            let listener = tokio::net::TcpListener::bind(addr)
+                .await
+                .with_context(|| format!("cannot listen for health probes on {addr}"))?;
+            let bound = listener.local_addr().context("health listener has no address")?;
+            state_after.set_health_addr(bound);
+            tracing::info!(addr = %bound, "serving grpc.health.v1 alone in plaintext");
+            let health_only = Server::builder().add_service(health_service.clone());
+            let task = tokio::spawn(async move {
+                if let Err(e) = health_only.serve_with_incoming(TcpIncoming::from(listener)).await {
+                    tracing::warn!("health port failed: {e}");
+                }
+            });
+            Some(AbortOnDrop(task))
+        }
+        None => None,
+    };
     // Dropped (and so stopped) when this function returns.
     let _metrics = match config.metrics_addr {
         Some(addr) => {
@@ -184,6 +210,10 @@ pub async fn serve_on(
         "serving wedge.v1.Renderer"
     );
     let mut builder = Server::builder();
+    if let Some(age) = config.max_connection_age {
+        // No forced close after it: a render in flight keeps its connection until it ends.
+        builder = builder.max_connection_age(age);
+    }
     if let Some(tls) = &config.tls {
         let identity = tonic::transport::Identity::from_pem(&tls.cert_pem, &tls.key_pem);
         builder = builder

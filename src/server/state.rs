@@ -8,8 +8,9 @@ use std::sync::Arc;
 pub struct ServerState {
     /// The counters, exported on `--metrics-addr`.
     pub metrics: Metrics,
-    /// Where the metrics endpoint listens, once bound.
+    /// Where the metrics endpoint and the plaintext health port listen, once bound.
     metrics_addr: std::sync::OnceLock<std::net::SocketAddr>,
+    health_addr: std::sync::OnceLock<std::net::SocketAddr>,
     /// Set when the shutdown grace period is over: running renders must stop.
     draining: std::sync::atomic::AtomicBool,
     drain: tokio::sync::Notify,
@@ -62,6 +63,15 @@ impl ServerState {
 
     pub(super) fn set_metrics_addr(&self, addr: std::net::SocketAddr) {
         let _ = self.metrics_addr.set(addr);
+    }
+
+    /// The bound address of the plaintext health port, if it is served.
+    pub fn health_addr(&self) -> Option<std::net::SocketAddr> {
+        self.health_addr.get().copied()
+    }
+
+    pub(super) fn set_health_addr(&self, addr: std::net::SocketAddr) {
+        let _ = self.health_addr.set(addr);
     }
 
     /// Tells every running render to stop (the shutdown grace period is over).
