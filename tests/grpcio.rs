@@ -1,8 +1,9 @@
-//! Replicas behind client-side balancing: a stock grpcio client with `round_robin` over three
-//! local servers spreads renders across all three, and a render on a draining server ends with
-//! UNAVAILABLE and is retried on another.
+//! Stock Python clients against real servers. Replicas behind client-side balancing: grpcio with
+//! `round_robin` over three local servers spreads renders across all three, and a render on a
+//! draining server ends with UNAVAILABLE and is retried on another. Reflection: Python's
+//! grpcio-reflection (v1alpha) lists and resolves the services.
 //!
-//! Needs Python with grpcio and grpcio-tools; `.ci/run` installs them and sets
+//! Needs Python with grpcio, grpcio-tools and grpcio-reflection; `.ci/run` installs them and sets
 //! WEDGE_TEST_GRPCIO=1, which makes this test mandatory. Without that variable it is skipped
 //! (a plain `cargo test` on a machine with only Rust).
 mod common;
@@ -17,6 +18,33 @@ fn grpcio_enabled() -> bool {
     std::env::var("WEDGE_TEST_GRPCIO").is_ok_and(|v| v == "1")
 }
 
+fn python() -> String {
+    std::env::var("WEDGE_TEST_PYTHON").unwrap_or_else(|_| "python3".to_string())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn grpcio_reflection_lists_and_resolves_the_services() {
+    if !grpcio_enabled() {
+        eprintln!("skipped: set WEDGE_TEST_GRPCIO=1 with grpcio-reflection installed");
+        return;
+    }
+    let server = TestServer::start().await;
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/grpcio/reflection.py");
+    let addr = server.addr_str();
+    let out = tokio::task::spawn_blocking(move || Command::new(python()).arg(script).arg(addr).output());
+    let out = within(60, "the reflection client", out).await.expect("join").expect("run python");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}\n{}", String::from_utf8_lossy(&out.stderr));
+    for line in [
+        "service grpc.health.v1.Health",
+        "service wedge.v1.Renderer",
+        "method Render wedge.v1.RenderRequest -> wedge.v1.RenderUpdate",
+        "method ListScenes wedge.v1.ListScenesRequest -> wedge.v1.ListScenesResponse",
+    ] {
+        assert!(text.lines().any(|l| l == line), "no {line:?} in\n{text}");
+    }
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn grpcio_round_robin_spreads_renders_and_retries_a_draining_replica() {
     if !grpcio_enabled() {
@@ -29,7 +57,7 @@ async fn grpcio_round_robin_spreads_renders_and_retries_a_draining_replica() {
         servers.push(TestServer::with_config(config.clone()).await);
     }
     let addrs: Vec<String> = servers.iter().map(TestServer::addr_str).collect();
-    let python = std::env::var("WEDGE_TEST_PYTHON").unwrap_or_else(|_| "python3".to_string());
+    let python = python();
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/grpcio/round_robin.py");
     let mut child = Command::new(&python)
         .arg(script)
