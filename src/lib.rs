@@ -16,6 +16,9 @@ pub mod runner;
 pub mod scene;
 pub mod server;
 
+// Generated code: a session's first message (a whole render request) is larger than the
+// others, and boxing it would only change prost's API.
+#[allow(clippy::large_enum_variant)]
 pub mod proto {
     tonic::include_proto!("wedge.v1");
     /// The encoded descriptor set of proto/, for reflection and canonical-JSON scene files.

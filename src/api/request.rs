@@ -64,11 +64,15 @@ impl Limits {
 pub struct PreparedJob {
     pub job: RenderJob,
     pub info: RenderInfo,
+    /// The source scene's camera (with the request's overrides) and settings, without its
+    /// geometry: what later views of the same compiled scene start from (`prepare_compiled`).
+    pub header: proto::Scene,
 }
 
 /// Validates `req` against `limits` and compiles its scene. `base_dir` resolves relative mesh
 /// paths of scene files; `scene_label` names the scene in output metadata. Errors name the
-/// request field (`settings.max_passes: ...`, `scene.lights[0].rect.edge_u: ...`).
+/// request field (`settings.max_passes: ...`, `scene.lights[0].rect.edge_u: ...`). A request
+/// naming a stored scene by digest goes through `prepare_compiled` instead.
 pub fn prepare(
     req: &proto::RenderRequest,
     limits: &Limits,
@@ -85,29 +89,87 @@ pub fn prepare(
                 builtin::names().collect::<Vec<_>>().join(", ")
             ),
         })?,
+        Some(SceneSource::SceneDigest(_)) => {
+            return err("scene_digest", "stored scenes are resolved by the server (prepare_compiled)")
+        }
         None => return err("scene", "a scene or the name of a built-in scene is required"),
     };
     apply_overrides(req, &mut scene)?;
-    let settings = merge_settings(scene.settings.as_ref(), req.settings.as_ref());
-    let (method, halt, bounces, initial_spp) = validate_settings(&settings, limits)?;
-    if let Some(o) = &req.outputs {
-        enum_value::<proto::PixelFormat>("outputs.format", o.format)?;
-    }
-    let scene_limits = SceneLimits {
-        max_triangles: limits.max_triangles,
-        max_pixels: limits.max_pixels,
-        mesh_root: limits.mesh_root.clone(),
-    };
-    let compiled = compile(&scene, &scene_limits, base_dir).map_err(|e| name_override(e, req))?;
+    // Settings errors before the (costly) compile; `job_for` checks them again with the rest.
+    validate_settings(&merge_settings(scene.settings.as_ref(), req.settings.as_ref()), limits)?;
+    let compiled = compile_scene(&scene, limits, base_dir).map_err(|e| name_override(e, req))?;
+    job_for(req, &header(&scene), Arc::new(compiled), limits, scene_label)
+}
+
+/// Validates and compiles a scene as it stands (its own camera) for `prepare_compiled`,
+/// refusing one with nothing to render.
+pub fn compile_scene(
+    scene: &proto::Scene,
+    limits: &Limits,
+    base_dir: Option<&Path>,
+) -> Result<crate::render::scene::Scene, FieldError> {
+    let compiled = compile(scene, &scene_limits(limits), base_dir)?;
     // Checked after compiling, so that a scene's own errors (its camera, say) come first.
     if scene.shapes.is_empty() && scene.lights.is_empty() {
         return err("scene", "nothing to render: the scene has no shapes and no lights");
     }
+    Ok(compiled)
+}
+
+/// What a compiled scene keeps of its source for later views and settings: the camera and
+/// the settings (not the geometry, which may be large).
+pub fn header(scene: &proto::Scene) -> proto::Scene {
+    proto::Scene {
+        camera: scene.camera,
+        settings: scene.settings,
+        description: scene.description.clone(),
+        ..Default::default()
+    }
+}
+
+/// A job for `req` on a scene compiled before (stored by digest, or a session's): the request's
+/// camera, size and settings override the `header`'s, and no geometry is compiled again.
+pub fn prepare_compiled(
+    req: &proto::RenderRequest,
+    header: &proto::Scene,
+    compiled: Arc<crate::render::scene::Scene>,
+    limits: &Limits,
+    scene_label: &str,
+) -> Result<PreparedJob, FieldError> {
+    let mut header = header.clone();
+    apply_overrides(req, &mut header)?;
+    job_for(req, &header, compiled, limits, scene_label)
+}
+
+fn scene_limits(limits: &Limits) -> SceneLimits {
+    SceneLimits {
+        max_triangles: limits.max_triangles,
+        max_pixels: limits.max_pixels,
+        mesh_root: limits.mesh_root.clone(),
+    }
+}
+
+/// The job of `req` on `compiled`, whose source's camera (with the request's overrides
+/// applied) and settings are in `header`.
+fn job_for(
+    req: &proto::RenderRequest,
+    header: &proto::Scene,
+    compiled: Arc<crate::render::scene::Scene>,
+    limits: &Limits,
+    scene_label: &str,
+) -> Result<PreparedJob, FieldError> {
+    let settings = merge_settings(header.settings.as_ref(), req.settings.as_ref());
+    let (method, halt, bounces, initial_spp) = validate_settings(&settings, limits)?;
+    if let Some(o) = &req.outputs {
+        enum_value::<proto::PixelFormat>("outputs.format", o.format)?;
+    }
+    let desc = crate::scene::camera("scene.camera", &header.camera, &scene_limits(limits))
+        .map_err(|e| name_override(e, req))?;
+    let view = compiled.view(&desc);
     // The AAF family keeps running sums per pixel and area light (~150 bytes each): bound the
     // product like the image size, so one request cannot exhaust the server's memory.
     let area_lights =
         compiled.lights.iter().filter(|l| matches!(l, crate::render::light::Light::Rect(_))).count() as u64;
-    let view = compiled.default_view();
     let pixels = view.width as u64 * view.height as u64;
     if method != Method::Uniform && pixels * area_lights.max(1) > limits.max_pixels {
         return err(
@@ -120,11 +182,11 @@ pub fn prepare(
         );
     }
     let integrand = integrand(&settings, compiled.world_scale)?;
-    let cam = scene.camera.as_ref().map(camera_info).unwrap_or_default();
+    let cam = header.camera.as_ref().map(camera_info).unwrap_or_default();
     Ok(PreparedJob {
         job: RenderJob {
             view,
-            scene: Arc::new(compiled),
+            scene: compiled,
             method,
             halt,
             seed: req.seed,
@@ -145,6 +207,7 @@ pub fn prepare(
             bounces,
             camera: cam,
         },
+        header: header.clone(),
     })
 }
 

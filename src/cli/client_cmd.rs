@@ -77,7 +77,7 @@ fn request_info(req: &proto::RenderRequest, label: &str) -> RenderInfo {
     let scene = match &req.scene_source {
         Some(SceneSource::Scene(s)) => Some(s.clone()),
         Some(SceneSource::Builtin(n)) => crate::scene::builtin::get(n),
-        None => None,
+        Some(SceneSource::SceneDigest(_)) | None => None,
     };
     let bounces = req
         .settings

@@ -98,6 +98,15 @@ pub struct ServeArgs {
     /// Kubernetes' native gRPC probes, which speak neither TLS nor tokens).
     #[arg(long)]
     pub health_addr: Option<SocketAddr>,
+    /// Seconds a session may go without a message from its client before it is ended.
+    #[arg(long, default_value_t = 300.0)]
+    pub session_idle_timeout: f64,
+    /// Bytes of scenes the PutScene store keeps (least recently used ones are evicted).
+    #[arg(long, default_value_t = 256 << 20)]
+    pub scene_cache_bytes: u64,
+    /// Triangles of scenes the PutScene store keeps (about 450 bytes of memory each).
+    #[arg(long, default_value_t = 2_000_000)]
+    pub scene_cache_triangles: u64,
     /// Serve Prometheus metrics at http://ADDR/metrics (off by default).
     #[arg(long)]
     pub metrics_addr: Option<SocketAddr>,

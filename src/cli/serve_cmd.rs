@@ -27,6 +27,9 @@ pub fn run(a: ServeArgs) -> anyhow::Result<()> {
         reflection: !a.no_reflection,
         metrics_addr: a.metrics_addr,
         health_addr: a.health_addr,
+        session_idle_timeout: seconds("--session-idle-timeout", a.session_idle_timeout)?,
+        scene_cache_bytes: a.scene_cache_bytes,
+        scene_cache_triangles: a.scene_cache_triangles,
         max_connection_age: Some(seconds("--max-connection-age", a.max_connection_age)?).filter(|d| !d.is_zero()),
     };
     check_exposure(config.addr, config.tls.is_some(), !config.tokens.is_empty(), a.insecure)

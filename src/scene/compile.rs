@@ -79,7 +79,8 @@ pub fn compile_builder(
     Ok(b)
 }
 
-fn camera(path: &str, c: &Option<proto::Camera>, limits: &SceneLimits) -> FieldResult<CameraDesc> {
+/// Validates a camera (`path` names it in errors) against the image-size limit.
+pub fn camera(path: &str, c: &Option<proto::Camera>, limits: &SceneLimits) -> FieldResult<CameraDesc> {
     let Some(c) = c else { return err(path, "is required") };
     let position = vec3(&format!("{path}.position"), &c.position)?;
     let look_at = vec3(&format!("{path}.look_at"), &c.look_at)?;

@@ -82,6 +82,15 @@ pub fn compile(
     compile::compile(scene, limits, base_dir)
 }
 
+/// Validates a camera against the image-size limit; `path` names it in errors.
+pub fn camera(
+    path: &str,
+    camera: &Option<proto::Camera>,
+    limits: &SceneLimits,
+) -> Result<crate::render::scene::CameraDesc, FieldError> {
+    compile::camera(path, camera, limits)
+}
+
 /// `compile` up to the BVH build, which the caller starts with `SceneBuilder::build` after
 /// choosing its options (the ray benchmark compares BVH layouts).
 pub fn compile_builder(

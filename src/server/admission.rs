@@ -16,8 +16,10 @@ use tokio::sync::OwnedSemaphorePermit;
 use tonic::body::Body;
 use tonic::Status;
 
-/// The calls that run a render and so need a slot.
-const RENDER_PATH: &str = "/wedge.v1.Renderer/Render";
+/// The calls that render or compile scenes and so need a slot (a session holds its slot as
+/// long as it is open).
+const SLOT_PATHS: [&str; 3] =
+    ["/wedge.v1.Renderer/Render", "/wedge.v1.Renderer/Session", "/wedge.v1.Renderer/PutScene"];
 
 /// A render slot taken for a call, handed to its handler in the request's extensions.
 #[derive(Clone, Debug)]
@@ -74,7 +76,7 @@ where
         let id = RequestId(self.layer.next_request.fetch_add(1, Ordering::Relaxed) + 1);
         let (mut parts, body) = req.into_parts();
         parts.extensions.insert(id);
-        if parts.uri.path() == RENDER_PATH {
+        if SLOT_PATHS.contains(&parts.uri.path()) {
             let Some(permit) = self.layer.slots.try_acquire() else {
                 let peer = parts
                     .extensions

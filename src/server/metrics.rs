@@ -57,6 +57,18 @@ pub struct Metrics {
     first_frame_seconds: Histogram,
     frame_interval_seconds: Histogram,
     rays_traced: Counter,
+    sessions_started: Counter,
+    active_sessions: Gauge,
+}
+
+/// Counts a session as active until dropped.
+#[derive(Debug)]
+pub struct ActiveSession(Gauge);
+
+impl Drop for ActiveSession {
+    fn drop(&mut self) {
+        self.0.dec();
+    }
 }
 
 impl Default for Metrics {
@@ -83,6 +95,8 @@ impl Metrics {
             first_frame_seconds: latency_buckets(),
             frame_interval_seconds: latency_buckets(),
             rays_traced: Counter::default(),
+            sessions_started: Counter::default(),
+            active_sessions: Gauge::default(),
         };
         let r = &mut m.registry;
         r.register("renders_started", "Renders started", m.renders_started.clone());
@@ -106,7 +120,20 @@ impl Metrics {
             m.frame_interval_seconds.clone(),
         );
         r.register("rays_traced", "Rays traced by renders (rate() gives rays per second)", m.rays_traced.clone());
+        r.register("sessions_started", "Sessions opened", m.sessions_started.clone());
+        r.register("active_sessions", "Sessions open now", m.active_sessions.clone());
         m
+    }
+
+    /// Counts a session as opened and active until the returned guard drops.
+    pub fn begin_session(&self) -> ActiveSession {
+        self.sessions_started.inc();
+        self.active_sessions.inc();
+        ActiveSession(self.active_sessions.clone())
+    }
+
+    pub fn active_sessions(&self) -> i64 {
+        self.active_sessions.get()
     }
 
     pub fn reject(&self, reason: RejectReason) {

@@ -8,6 +8,8 @@ pub mod exposure;
 pub mod log_text;
 pub mod metrics;
 pub mod render_service;
+pub mod scene_cache;
+pub mod session;
 pub mod shutdown;
 pub mod state;
 
@@ -24,11 +26,6 @@ use std::sync::Arc;
 use std::time::Duration;
 use tonic::transport::server::TcpIncoming;
 use tonic::transport::Server;
-use tonic_health::ServingStatus;
-
-/// After the grace period, how long streams have to deliver their UNAVAILABLE status before
-/// the server stops waiting for their connections.
-const CLOSE_AFTER_DRAIN: Duration = Duration::from_millis(500);
 
 /// The largest request by default: enough for an inline mesh of a million triangles with
 /// normals and texture coordinates (24 MiB on the wire; see `bench/request_memory.py`).
@@ -67,6 +64,11 @@ pub struct ServerConfig {
     /// Also serve `grpc.health.v1` alone, in plaintext and without tokens, on this address:
     /// for orchestrators' native gRPC probes, which speak neither TLS nor tokens.
     pub health_addr: Option<SocketAddr>,
+    /// A session with no message from its client for this long ends with DEADLINE_EXCEEDED.
+    pub session_idle_timeout: Duration,
+    /// Bounds of the store of `PutScene` scenes: encoded bytes and triangles, over all scenes.
+    pub scene_cache_bytes: u64,
+    pub scene_cache_triangles: u64,
 }
 
 impl Default for ServerConfig {
@@ -85,6 +87,9 @@ impl Default for ServerConfig {
             metrics_addr: None,
             max_connection_age: Some(Duration::from_secs(300)),
             health_addr: None,
+            session_idle_timeout: Duration::from_secs(300),
+            scene_cache_bytes: 256 << 20,
+            scene_cache_triangles: 2_000_000,
         }
     }
 }
@@ -98,8 +103,8 @@ pub async fn serve(config: ServerConfig, shutdown: impl Future<Output = ()>) -> 
 }
 
 /// Serves on an already bound listener (tests bind port 0) until `shutdown` resolves; then
-/// reports NOT_SERVING, stops accepting, and lets in-flight streams finish. `config.addr` is
-/// ignored.
+/// reports NOT_SERVING, stops accepting, and lets in-flight streams finish for the grace period
+/// (`shutdown::phases`). `config.addr` is ignored.
 pub async fn serve_on(
     listener: tokio::net::TcpListener,
     config: ServerConfig,
@@ -107,9 +112,8 @@ pub async fn serve_on(
     shutdown: impl Future<Output = ()>,
 ) -> anyhow::Result<()> {
     let local = listener.local_addr().context("listener has no address")?;
-    let drain_state = Arc::clone(&state);
     let service = {
-        let config = config.clone();
+        let (config, state) = (config.clone(), Arc::clone(&state));
         tokio::task::spawn_blocking(move || RenderService::new(&config, state))
             .await
             .context("building the render service")?
@@ -117,83 +121,32 @@ pub async fn serve_on(
 
     let (health, health_service) = tonic_health::server::health_reporter();
     health.set_serving::<RendererServer<RenderService>>().await;
-    // Both versions: grpcurl and grpcui speak v1, Python's grpcio-reflection and older tools
-    // only v1alpha.
-    let reflection = || {
-        tonic_reflection::server::Builder::configure()
-            .register_encoded_file_descriptor_set(crate::proto::FILE_DESCRIPTOR_SET)
-            .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
-    };
-    let (reflection_v1, reflection_v1alpha) = if config.reflection {
-        let v1 = reflection().build_v1().context("building the reflection service")?;
-        let v1alpha = reflection().build_v1alpha().context("building the reflection service")?;
-        (Some(v1), Some(v1alpha))
-    } else {
-        (None, None)
-    };
+    let (reflection_v1, reflection_v1alpha) = reflection_services(config.reflection)?;
 
-    // The signal starts the graceful drain; `ended` then fires when the grace period is over.
-    let grace = config.shutdown_grace;
-    let (ended_tx, ended_rx) = tokio::sync::oneshot::channel::<()>();
-    let signal = async move {
-        shutdown.await;
-        tracing::info!(
-            grace_seconds = grace.as_secs_f64(),
-            "shutting down: refusing new calls, finishing in-flight renders"
-        );
-        health.set_not_serving::<RendererServer<RenderService>>().await;
-        health.set_service_status("", ServingStatus::NotServing).await;
-        tokio::spawn(async move {
-            tokio::time::sleep(grace).await;
-            let _ = ended_tx.send(());
-        });
-    };
-    // Renders still running when the grace period ends are cancelled and every open stream
-    // ends with UNAVAILABLE, so shutdown never waits for a long time budget or a health watch.
-    let state_at_end = Arc::clone(&drain_state);
-    let state_after = Arc::clone(&drain_state);
-    let grace_over = async move {
-        if ended_rx.await.is_err() {
-            return std::future::pending().await;
-        }
-        let renders = state_at_end.active_renders();
-        tracing::warn!(renders, "grace period over: ending every open stream with UNAVAILABLE");
-        state_at_end.begin_drain();
-        // Time for the UNAVAILABLE trailers to reach clients that still read; connections of
-        // clients that do not are closed when the server returns.
-        tokio::time::sleep(CLOSE_AFTER_DRAIN).await;
-    };
+    let (signal, grace_over) = shutdown::phases(shutdown, config.shutdown_grace, health, Arc::clone(&state));
     let slots = service.slots();
+    // Both stop when this function returns.
     let _health_port = match config.health_addr {
         Some(addr) => {
-            let listener = tokio::net::TcpListener::bind(addr)
-                .await
-                .with_context(|| format!("cannot listen for health probes on {addr}"))?;
-            let bound = listener.local_addr().context("health listener has no address")?;
-            state_after.set_health_addr(bound);
+            let (listener, bound) = bind_side(addr, "health probes").await?;
+            state.set_health_addr(bound);
             tracing::info!(addr = %bound, "serving grpc.health.v1 alone in plaintext");
             let health_only = Server::builder().add_service(health_service.clone());
-            let task = tokio::spawn(async move {
+            Some(AbortOnDrop(tokio::spawn(async move {
                 if let Err(e) = health_only.serve_with_incoming(TcpIncoming::from(listener)).await {
                     tracing::warn!("health port failed: {e}");
                 }
-            });
-            Some(AbortOnDrop(task))
+            })))
         }
         None => None,
     };
-    // Dropped (and so stopped) when this function returns.
     let _metrics = match config.metrics_addr {
         Some(addr) => {
-            let listener = tokio::net::TcpListener::bind(addr)
-                .await
-                .with_context(|| format!("cannot listen for metrics on {addr}"))?;
-            let bound = listener.local_addr().context("metrics listener has no address")?;
-            state_after.set_metrics_addr(bound);
+            let (listener, bound) = bind_side(addr, "metrics").await?;
+            state.set_metrics_addr(bound);
             tracing::info!(addr = %bound, "serving Prometheus metrics at /metrics");
-            let state = Arc::clone(&state_after);
-            let task = tokio::spawn(metrics::serve(listener, Arc::new(move || state.metrics.encode())));
-            Some(AbortOnDrop(task))
+            let exported = Arc::clone(&state);
+            Some(AbortOnDrop(tokio::spawn(metrics::serve(listener, Arc::new(move || exported.metrics.encode())))))
         }
         None => None,
     };
@@ -224,9 +177,9 @@ pub async fn serve_on(
         // Notice clients that vanished without closing the connection, so their renders stop.
         .http2_keepalive_interval(Some(Duration::from_secs(30)))
         .http2_keepalive_timeout(Some(Duration::from_secs(20)))
-        .layer(shutdown::EndStreamsLayer::new(drain_state))
-        .layer(auth::BearerAuthLayer::new(config.tokens.clone(), Arc::clone(&state_after)))
-        .layer(admission::AdmissionLayer::new(slots, config.max_request_bytes, Arc::clone(&state_after)))
+        .layer(shutdown::EndStreamsLayer::new(Arc::clone(&state)))
+        .layer(auth::BearerAuthLayer::new(config.tokens.clone(), Arc::clone(&state)))
+        .layer(admission::AdmissionLayer::new(slots, config.max_request_bytes, Arc::clone(&state)))
         .add_service(health_service)
         .add_optional_service(reflection_v1)
         .add_optional_service(reflection_v1alpha)
@@ -240,8 +193,8 @@ pub async fn serve_on(
     }
     // Cancelled renders stop at their next check; wait for their threads (bounded), so that
     // the caller sees every slot free when this returns.
-    if tokio::time::timeout(CLOSE_AFTER_DRAIN, state_after.renders_ended()).await.is_err() {
-        tracing::warn!(renders = state_after.active_renders(), "renders still winding down at exit");
+    if tokio::time::timeout(shutdown::CLOSE_AFTER_DRAIN, state.renders_ended()).await.is_err() {
+        tracing::warn!(renders = state.active_renders(), "renders still winding down at exit");
     }
     tracing::info!("server stopped");
     Ok(())
@@ -254,4 +207,38 @@ impl Drop for AbortOnDrop {
     fn drop(&mut self) {
         self.0.abort();
     }
+}
+
+/// Server reflection, v1 and v1alpha (grpcurl and grpcui speak v1; Python's grpcio-reflection
+/// and older tools only v1alpha), or neither.
+#[allow(clippy::type_complexity)]
+fn reflection_services(
+    enabled: bool,
+) -> anyhow::Result<(
+    Option<tonic_reflection::server::v1::ServerReflectionServer<impl tonic_reflection::server::v1::ServerReflection>>,
+    Option<
+        tonic_reflection::server::v1alpha::ServerReflectionServer<
+            impl tonic_reflection::server::v1alpha::ServerReflection,
+        >,
+    >,
+)> {
+    if !enabled {
+        return Ok((None, None));
+    }
+    let builder = || {
+        tonic_reflection::server::Builder::configure()
+            .register_encoded_file_descriptor_set(crate::proto::FILE_DESCRIPTOR_SET)
+            .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
+    };
+    let v1 = builder().build_v1().context("building the reflection service")?;
+    let v1alpha = builder().build_v1alpha().context("building the reflection service")?;
+    Ok((Some(v1), Some(v1alpha)))
+}
+
+/// Binds a side listener (health port, metrics) and says which address it got.
+async fn bind_side(addr: SocketAddr, what: &str) -> anyhow::Result<(tokio::net::TcpListener, SocketAddr)> {
+    let listener =
+        tokio::net::TcpListener::bind(addr).await.with_context(|| format!("cannot listen for {what} on {addr}"))?;
+    let bound = listener.local_addr().with_context(|| format!("the {what} listener has no address"))?;
+    Ok((listener, bound))
 }

@@ -4,6 +4,8 @@
 use super::admission::{RenderSlot, RequestId};
 use super::log_text::Escaped;
 use super::metrics::RejectReason;
+use super::scene_cache::{self, SceneCache, StoredScene};
+use super::session;
 use super::state::{RenderOutcome, ServerState};
 use super::ServerConfig;
 use crate::api::request::{self, Limits, PreparedJob};
@@ -13,7 +15,8 @@ use crate::pipeline::job::CancelToken;
 use crate::pipeline::registry::component_names;
 use crate::proto::{
     render_request::SceneSource, render_update, renderer_server::Renderer, FrameComplete, ListScenesRequest,
-    ListScenesResponse, OutputSelection, PixelFormat, RenderRequest, RenderStarted, RenderUpdate,
+    ListScenesResponse, OutputSelection, PixelFormat, PutSceneRequest, PutSceneResponse, RenderRequest, RenderStarted,
+    RenderUpdate, SessionRequest,
 };
 use crate::runner::{self, RunError, RunSummary, Slots};
 use std::sync::Arc;
@@ -34,8 +37,11 @@ pub struct RenderService {
     limits: Arc<Limits>,
     max_chunk_bytes: usize,
     stall_timeout: Duration,
+    session_idle_timeout: Duration,
     slots: Slots,
     state: Arc<ServerState>,
+    /// Scenes stored by `PutScene`, named by digest.
+    cache: Arc<SceneCache>,
     scenes: Arc<ListScenesResponse>,
 }
 
@@ -47,6 +53,8 @@ impl RenderService {
             limits: Arc::new(config.limits.clone()),
             max_chunk_bytes: config.max_chunk_bytes.max(1),
             stall_timeout: config.stall_timeout,
+            session_idle_timeout: config.session_idle_timeout,
+            cache: Arc::new(SceneCache::new(config.scene_cache_bytes, config.scene_cache_triangles)),
             slots: Slots::new(config.max_concurrent_renders),
             state,
             scenes: Arc::new(super::catalog::builtin_catalog(&config.limits)),
@@ -59,8 +67,17 @@ impl RenderService {
     }
 
     /// Validates the request and compiles its scene, off the async workers (compiling builds
-    /// the BVH).
+    /// the BVH); a stored scene named by digest is not compiled again.
     async fn prepare(&self, req: RenderRequest, label: &str, peer: &str, rid: u64) -> Result<PreparedJob, Status> {
+        if let Some(SceneSource::SceneDigest(digest)) = &req.scene_source {
+            let stored = self.stored(digest)?;
+            return request::prepare_compiled(&req, &stored.header, Arc::clone(&stored.compiled), &self.limits, label)
+                .map_err(|e| {
+                    warn!(request = rid, %peer, scene = %Escaped(label), "rejected render: {}", Escaped(&e.to_string()));
+                    self.state.metrics.reject(RejectReason::Invalid);
+                    Status::invalid_argument(e.to_string())
+                });
+        }
         let limits = Arc::clone(&self.limits);
         let prep_label = label.to_string();
         tokio::task::spawn_blocking(move || request::prepare(&req, &limits, limits.mesh_root.as_deref(), &prep_label))
@@ -77,9 +94,30 @@ impl RenderService {
     }
 }
 
+impl RenderService {
+    /// The stored scene of `digest`: INVALID_ARGUMENT when it is not a digest, FAILED_PRECONDITION
+    /// when the store does not have it (the client uploads it again).
+    fn stored(&self, digest: &str) -> Result<Arc<StoredScene>, Status> {
+        if !scene_cache::is_digest(digest) {
+            self.state.metrics.reject(RejectReason::Invalid);
+            return Err(Status::invalid_argument(format!(
+                "scene_digest: {:?} is not a digest (\"sha256:\" and 64 hex digits)",
+                digest.chars().take(80).collect::<String>()
+            )));
+        }
+        self.cache.get(digest).ok_or_else(|| {
+            Status::failed_precondition(format!(
+                "scene_digest: no scene {digest} on this server (it was never stored or was evicted): upload it with PutScene"
+            ))
+        })
+    }
+}
+
+/// How logs name a request's scene.
 fn scene_label(req: &RenderRequest) -> String {
     match &req.scene_source {
         Some(SceneSource::Builtin(name)) => name.clone(),
+        Some(SceneSource::SceneDigest(d)) => d.clone(),
         Some(SceneSource::Scene(_)) | None => "inline".to_string(),
     }
 }
@@ -160,6 +198,74 @@ impl Renderer for RenderService {
 
     async fn list_scenes(&self, _request: Request<ListScenesRequest>) -> Result<Response<ListScenesResponse>, Status> {
         Ok(Response::new(ListScenesResponse::clone(&self.scenes)))
+    }
+
+    type SessionStream = session::SessionStream;
+
+    async fn session(
+        &self,
+        mut request: Request<tonic::Streaming<SessionRequest>>,
+    ) -> Result<Response<Self::SessionStream>, Status> {
+        let rid = request.extensions().get::<RequestId>().map_or(0, |id| id.0);
+        let peer = request.remote_addr().map_or_else(|| "unknown".to_string(), |a| a.to_string());
+        // Taken by `admission` before the request was read; held as long as the session.
+        let slot = request.extensions_mut().remove::<RenderSlot>();
+        let Some(permit) = slot.map(|s| s.0).or_else(|| self.slots.try_acquire().map(Arc::new)) else {
+            self.state.metrics.reject(RejectReason::Busy);
+            return Err(super::admission::busy(&self.slots));
+        };
+        let mut inbound = request.into_inner();
+        let open = session::first_message(&mut inbound, self.session_idle_timeout).await.inspect_err(|s| {
+            if s.code() == tonic::Code::InvalidArgument {
+                self.state.metrics.reject(RejectReason::Invalid);
+            }
+        })?;
+        let label = scene_label(&open);
+        let prepared = self.prepare(open.clone(), &label, &peer, rid).await?;
+        let cx = session::SessionContext {
+            limits: Arc::clone(&self.limits),
+            state: Arc::clone(&self.state),
+            max_chunk_bytes: self.max_chunk_bytes,
+            stall_timeout: self.stall_timeout,
+            idle_timeout: self.session_idle_timeout,
+            request_id: rid,
+            label,
+        };
+        Ok(Response::new(session::start(cx, permit, inbound, open, prepared).await?))
+    }
+
+    async fn put_scene(&self, mut request: Request<PutSceneRequest>) -> Result<Response<PutSceneResponse>, Status> {
+        let rid = request.extensions().get::<RequestId>().map_or(0, |id| id.0);
+        // Compiling is a render's worth of work: it holds a slot (taken by `admission`).
+        let _slot = request.extensions_mut().remove::<RenderSlot>();
+        let Some(scene) = request.into_inner().scene else {
+            self.state.metrics.reject(RejectReason::Invalid);
+            return Err(Status::invalid_argument("scene: is required"));
+        };
+        let digest = scene_cache::digest(&scene);
+        let reply = |s: &StoredScene| {
+            Response::new(PutSceneResponse { digest: s.digest.clone(), bytes: s.bytes, triangles: s.triangles })
+        };
+        if let Some(stored) = self.cache.get(&digest) {
+            return Ok(reply(&stored));
+        }
+        let bytes = prost::Message::encoded_len(&scene) as u64;
+        let limits = Arc::clone(&self.limits);
+        let compiled = tokio::task::spawn_blocking(move || {
+            request::compile_scene(&scene, &limits, None).map(|c| (c, request::header(&scene)))
+        })
+        .await
+        .map_err(|_| Status::internal("scene compilation failed"))?;
+        let (compiled, header) = compiled.map_err(|e| {
+            warn!(request = rid, "rejected scene: {}", Escaped(&e.to_string()));
+            self.state.metrics.reject(RejectReason::Invalid);
+            Status::invalid_argument(e.to_string())
+        })?;
+        let triangles = compiled.triangle_count() as u64;
+        let stored = StoredScene { digest, header, compiled: Arc::new(compiled), bytes, triangles };
+        let stored = self.cache.insert(stored).map_err(Status::resource_exhausted)?;
+        info!(request = rid, digest = %stored.digest, bytes, triangles, "scene stored");
+        Ok(reply(&stored))
     }
 }
 

@@ -4,6 +4,8 @@
 //! renders) with UNAVAILABLE, and `serve_on` returns shortly after even if a client never reads
 //! its trailers.
 use super::state::ServerState;
+use super::RenderService;
+use crate::proto::renderer_server::RendererServer;
 use bytes::Bytes;
 use http_body::{Body as HttpBody, Frame, SizeHint};
 use std::future::Future;
@@ -110,6 +112,50 @@ impl HttpBody for EndOnDrain {
     fn size_hint(&self) -> SizeHint {
         self.inner.size_hint()
     }
+}
+
+/// After the grace period, how long streams have to deliver their UNAVAILABLE status before
+/// the server stops waiting for their connections.
+pub const CLOSE_AFTER_DRAIN: std::time::Duration = std::time::Duration::from_millis(500);
+
+/// The two phases of a shutdown, as futures for `serve_on`. `signal` resolves once `shutdown`
+/// has: health turns NOT_SERVING and the server stops accepting (the graceful drain). The
+/// grace period then starts; `grace_over` resolves when it and `CLOSE_AFTER_DRAIN` have passed,
+/// having ended every open stream with UNAVAILABLE and cancelled every render, so that
+/// shutdown never waits for a long time budget, a health watch or a client that stopped
+/// reading. It never resolves if `signal` was never awaited.
+pub fn phases(
+    shutdown: impl Future<Output = ()>,
+    grace: std::time::Duration,
+    health: tonic_health::server::HealthReporter,
+    state: Arc<ServerState>,
+) -> (impl Future<Output = ()>, impl Future<Output = ()>) {
+    let (ended_tx, ended_rx) = tokio::sync::oneshot::channel::<()>();
+    let signal = async move {
+        shutdown.await;
+        tracing::info!(
+            grace_seconds = grace.as_secs_f64(),
+            "shutting down: refusing new calls, finishing in-flight renders"
+        );
+        health.set_not_serving::<RendererServer<RenderService>>().await;
+        health.set_service_status("", tonic_health::ServingStatus::NotServing).await;
+        tokio::spawn(async move {
+            tokio::time::sleep(grace).await;
+            let _ = ended_tx.send(());
+        });
+    };
+    let grace_over = async move {
+        if ended_rx.await.is_err() {
+            return std::future::pending().await;
+        }
+        let renders = state.active_renders();
+        tracing::warn!(renders, "grace period over: ending every open stream with UNAVAILABLE");
+        state.begin_drain();
+        // Time for the UNAVAILABLE trailers to reach clients that still read; connections of
+        // clients that do not are closed when the server returns.
+        tokio::time::sleep(CLOSE_AFTER_DRAIN).await;
+    };
+    (signal, grace_over)
 }
 
 /// Resolves on SIGINT (Ctrl-C) or, on Unix, SIGTERM.

@@ -1,0 +1,476 @@
+//! The `Session` call: one compiled scene, rendered again for every accepted change (view,
+//! settings, outputs, pause, resume) without compiling it again. Three tasks share a session:
+//! - control reads the client's messages, validates each change against the compiled scene,
+//!   queues its acknowledgement (or an in-band error) and publishes the new job;
+//! - the render loop renders the newest job, cancelling the running render (within a row of
+//!   work) when a newer one is published, and leaves each frame in a one-frame mailbox;
+//! - the sender is the only writer to the client: acknowledgements first, then the mailbox's
+//!   frame, checking between chunks that no newer change has been acknowledged.
+//!
+//! A slow client therefore gets the newest frame and skips the others (counted as dropped):
+//! memory per session is one frame being sent and one waiting.
+use super::log_text::Escaped;
+use super::state::{RenderOutcome, ServerState};
+use crate::api::request::{self, PreparedJob};
+use crate::api::wire;
+use crate::pipeline::frame::Frame;
+use crate::pipeline::job::CancelToken;
+use crate::pipeline::registry::component_names;
+use crate::proto::{
+    session_event, session_request, FrameComplete, OutputSelection, RenderRequest, RenderStarted, SessionAck,
+    SessionError, SessionEvent, SessionRequest, SessionUpdate,
+};
+use crate::runner;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+use tokio::sync::{mpsc, watch, Notify};
+use tokio_stream::wrappers::ReceiverStream;
+use tonic::{Status, Streaming};
+use tracing::info;
+
+pub type EventResult = Result<SessionEvent, Status>;
+pub type SessionStream = ReceiverStream<EventResult>;
+
+/// Events buffered towards the client (plus one place reserved for the final status).
+const EVENT_CAPACITY: usize = 4;
+/// Acknowledgements and errors waiting for the sender; a client that sends changes much
+/// faster than it reads is slowed down here.
+const CONTROL_CAPACITY: usize = 64;
+
+/// A job of one generation, with what the wire needs to send its frames.
+struct GenerationJob {
+    generation: u64,
+    prepared: PreparedJob,
+    outputs: OutputSelection,
+    frame_every: u32,
+    components: Vec<&'static str>,
+    started: RenderStarted,
+}
+
+impl GenerationJob {
+    fn new(generation: u64, prepared: PreparedJob, req: &RenderRequest) -> GenerationJob {
+        let outputs = req.outputs.unwrap_or_default();
+        let job = &prepared.job;
+        let components = component_names(job);
+        let started = RenderStarted {
+            width: job.width(),
+            height: job.height(),
+            method: job.method.to_proto() as i32,
+            seed: job.seed,
+            triangles: u32::try_from(job.scene.triangle_count()).unwrap_or(u32::MAX),
+            layers: wire::layer_names(&outputs, &components),
+            format: outputs.format,
+        };
+        GenerationJob { generation, prepared, outputs, frame_every: req.frame_every.max(1), components, started }
+    }
+}
+
+/// What control tells the sender.
+enum Control {
+    Ack { update: u64, generation: u64 },
+    Error { update: u64, generation: u64, field: String, message: String },
+}
+
+/// A frame and the job it belongs to.
+type JobFrame = (Arc<GenerationJob>, Frame);
+
+/// The one-frame mailbox between the render loop and the sender: the waiting frame, and the
+/// frames dropped so far.
+#[derive(Default)]
+struct Mailbox {
+    frame: Mutex<(Option<JobFrame>, u64)>,
+    ready: Notify,
+}
+
+impl Mailbox {
+    /// Leaves `frame` for the sender; a frame still waiting is replaced and counted as dropped.
+    fn put(&self, job: &Arc<GenerationJob>, frame: &Frame) {
+        let mut slot = self.frame.lock().unwrap_or_else(|p| p.into_inner());
+        if slot.0.replace((Arc::clone(job), frame.clone())).is_some() {
+            slot.1 += 1;
+        }
+        drop(slot);
+        self.ready.notify_one();
+    }
+
+    /// The waiting frame, if any, and the frames dropped so far.
+    fn take(&self) -> (Option<JobFrame>, u64) {
+        let mut slot = self.frame.lock().unwrap_or_else(|p| p.into_inner());
+        (slot.0.take(), slot.1)
+    }
+
+    fn count_dropped(&self) {
+        self.frame.lock().unwrap_or_else(|p| p.into_inner()).1 += 1;
+    }
+}
+
+/// Why a session ended.
+enum Ending {
+    /// The client closed its side.
+    ClientDone,
+    ClientGone,
+    Idle(Duration),
+    Stalled(Duration),
+    Drained,
+}
+
+/// The first message of a session, which must open it.
+pub async fn first_message(inbound: &mut Streaming<SessionRequest>, idle: Duration) -> Result<RenderRequest, Status> {
+    let first = tokio::time::timeout(idle, inbound.message())
+        .await
+        .map_err(|_| Status::deadline_exceeded("no open message within the session idle timeout"))??;
+    match first {
+        Some(SessionRequest { kind: Some(session_request::Kind::Open(open)) }) => Ok(open),
+        _ => Err(Status::invalid_argument("open: the first message of a session must open it (SessionRequest.open)")),
+    }
+}
+
+/// What a session needs of the server.
+pub struct SessionContext {
+    pub limits: Arc<request::Limits>,
+    pub state: Arc<ServerState>,
+    pub max_chunk_bytes: usize,
+    pub stall_timeout: Duration,
+    pub idle_timeout: Duration,
+    /// The call's id and scene label, for logs.
+    pub request_id: u64,
+    pub label: String,
+}
+
+/// Starts an opened session on its prepared first job; `slot` (a render slot) is held until
+/// the session ends.
+pub async fn start(
+    cx: SessionContext,
+    slot: impl Send + 'static,
+    inbound: Streaming<SessionRequest>,
+    open: RenderRequest,
+    prepared: PreparedJob,
+) -> Result<SessionStream, Status> {
+    let (rid, label) = (cx.request_id, cx.label.clone());
+    let scene = SessionScene {
+        header: prepared.header.clone(),
+        compiled: Arc::clone(&prepared.job.scene),
+        label: label.clone(),
+        base: RenderRequest { scene_source: None, ..open.clone() },
+    };
+    let first_job = Arc::new(GenerationJob::new(1, prepared, &open));
+
+    let (out_tx, out_rx) = mpsc::channel::<EventResult>(EVENT_CAPACITY + 1);
+    let final_status = out_tx.clone().reserve_owned().await.map_err(|_| Status::cancelled("client went away"))?;
+    let (ctrl_tx, ctrl_rx) = mpsc::channel::<Control>(CONTROL_CAPACITY);
+    let _ = ctrl_tx.send(Control::Ack { update: 1, generation: 1 }).await;
+    let (job_tx, job_rx) = watch::channel(Some(Arc::clone(&first_job)));
+    let mailbox = Arc::new(Mailbox::default());
+    let state = Arc::clone(&cx.state);
+    let session_guard = state.metrics.begin_session();
+    info!(request = rid, scene = %Escaped(&label), "session opened");
+
+    let (limits, idle) = (cx.limits, cx.idle_timeout);
+    let sender = Sender { out: out_tx, max_chunk_bytes: cx.max_chunk_bytes, stall_timeout: cx.stall_timeout };
+    let render = tokio::spawn(render_loop(job_rx, Arc::clone(&mailbox), Arc::clone(&state)));
+    tokio::spawn(async move {
+        // The slot and the active-session count last as long as the session.
+        let _held = (slot, session_guard);
+        let control = control(inbound, scene, limits, job_tx, ctrl_tx, idle);
+        let ending = tokio::select! {
+            e = control => e,
+            e = sender.run(ctrl_rx, &mailbox) => e,
+            () = state.drained() => Ending::Drained,
+        };
+        // The job channel is closed now (control is gone): the render loop stops its render.
+        let _ = tokio::time::timeout(Duration::from_secs(10), render).await;
+        let status = match ending {
+            Ending::ClientDone | Ending::ClientGone => None,
+            Ending::Idle(d) => Some(Status::deadline_exceeded(format!(
+                "session idle: no message for {} s (session idle timeout)",
+                d.as_secs_f64()
+            ))),
+            Ending::Stalled(d) => Some(Status::deadline_exceeded(format!(
+                "the client accepted no message for {} s (stall timeout): session ended",
+                d.as_secs_f64()
+            ))),
+            Ending::Drained => Some(Status::unavailable(super::shutdown::DRAINED_MESSAGE)),
+        };
+        info!(request = rid, status = ?status.as_ref().map(|s| s.code()), "session ended");
+        if let Some(status) = status {
+            final_status.send(Err(status));
+        }
+    });
+    Ok(ReceiverStream::new(out_rx))
+}
+
+/// The compiled scene of a session and the request it was opened with (the base that updates
+/// change).
+struct SessionScene {
+    header: crate::proto::Scene,
+    compiled: Arc<crate::render::scene::Scene>,
+    label: String,
+    base: RenderRequest,
+}
+
+/// Applies a change to the session's request: set fields replace the current ones.
+fn apply_update(current: &RenderRequest, u: &SessionUpdate) -> RenderRequest {
+    let mut next = current.clone();
+    if let Some(c) = &u.camera {
+        let cam = next.camera.get_or_insert_with(Default::default);
+        if c.position.is_some() {
+            cam.position = c.position;
+        }
+        if c.look_at.is_some() {
+            cam.look_at = c.look_at;
+        }
+        if c.up.is_some() {
+            cam.up = c.up;
+        }
+        if c.vertical_fov_deg.is_some() {
+            cam.vertical_fov_deg = c.vertical_fov_deg;
+        }
+    }
+    if u.width != 0 {
+        next.width = u.width;
+    }
+    if u.height != 0 {
+        next.height = u.height;
+    }
+    if u.settings.is_some() {
+        next.settings = u.settings;
+    }
+    if u.outputs.is_some() {
+        next.outputs = u.outputs;
+    }
+    next
+}
+
+/// Reads the client's changes until it closes its side, goes away or idles.
+async fn control(
+    mut inbound: Streaming<SessionRequest>,
+    mut scene: SessionScene,
+    limits: Arc<request::Limits>,
+    jobs: watch::Sender<Option<Arc<GenerationJob>>>,
+    ctrl: mpsc::Sender<Control>,
+    idle: Duration,
+) -> Ending {
+    let (mut generation, mut update, mut paused) = (1u64, 1u64, false);
+    loop {
+        let message = match tokio::time::timeout(idle, inbound.message()).await {
+            Err(_) => return Ending::Idle(idle),
+            Ok(Ok(None)) => return Ending::ClientDone,
+            Ok(Err(_)) => return Ending::ClientGone,
+            Ok(Ok(Some(m))) => m,
+        };
+        update += 1;
+        let refuse = |field: &str, message: String| Control::Error { update, generation, field: field.into(), message };
+        let change = match message.kind {
+            Some(session_request::Kind::Update(u)) => u,
+            Some(session_request::Kind::Open(_)) => {
+                let _ = ctrl.send(refuse("open", "the session is open already".into())).await;
+                continue;
+            }
+            None => {
+                let _ = ctrl.send(refuse("kind", "a message must hold an update".into())).await;
+                continue;
+            }
+        };
+        let next = apply_update(&scene.base, &change);
+        let prepared =
+            match request::prepare_compiled(&next, &scene.header, Arc::clone(&scene.compiled), &limits, &scene.label) {
+                Ok(p) => p,
+                Err(e) => {
+                    let _ = ctrl.send(refuse(&e.field, e.message)).await;
+                    continue;
+                }
+            };
+        generation += 1;
+        scene.base = next;
+        paused = (paused || change.pause) && !change.resume;
+        // The acknowledgement is queued before the job is published, so that it precedes every
+        // frame of the new generation.
+        if ctrl.send(Control::Ack { update, generation }).await.is_err() {
+            return Ending::ClientGone;
+        }
+        let job = (!paused).then(|| Arc::new(GenerationJob::new(generation, prepared, &scene.base)));
+        if jobs.send(job).is_err() {
+            return Ending::ClientGone;
+        }
+    }
+}
+
+/// Renders the newest published job; a newer one cancels the running render.
+async fn render_loop(
+    mut jobs: watch::Receiver<Option<Arc<GenerationJob>>>,
+    mailbox: Arc<Mailbox>,
+    state: Arc<ServerState>,
+) {
+    loop {
+        let current = jobs.borrow_and_update().clone();
+        if let Some(gen_job) = current {
+            let cancel = CancelToken::new();
+            let (c, m, g) = (cancel.clone(), Arc::clone(&mailbox), Arc::clone(&gen_job));
+            let mut active = state.begin_render();
+            let (result, changed) = runner::spawn((), cancel, jobs.changed(), move || {
+                runner::run(&g.prepared.job, &c, g.frame_every, &mut |frame| {
+                    m.put(&g, frame);
+                    Ok::<(), ()>(())
+                })
+            })
+            .await;
+            active.set_outcome(match result {
+                Ok(Ok(_)) => RenderOutcome::Finished,
+                Ok(Err(_)) => RenderOutcome::Cancelled,
+                Err(_) => RenderOutcome::Failed,
+            });
+            match changed {
+                Some(Ok(())) => continue,
+                Some(Err(_)) => return,
+                None => {}
+            }
+        }
+        // Finished or paused: wait for the next change.
+        if jobs.changed().await.is_err() {
+            return;
+        }
+    }
+}
+
+/// The only writer of the session's events.
+struct Sender {
+    out: mpsc::Sender<EventResult>,
+    max_chunk_bytes: usize,
+    stall_timeout: Duration,
+}
+
+fn event(generation: u64, kind: session_event::Kind) -> SessionEvent {
+    SessionEvent { generation, kind: Some(kind), frames_dropped: 0 }
+}
+
+impl Sender {
+    async fn send(&self, e: SessionEvent) -> Result<(), Ending> {
+        match tokio::time::timeout(self.stall_timeout, self.out.send(Ok(e))).await {
+            Ok(Ok(())) => Ok(()),
+            Ok(Err(_)) => Err(Ending::ClientGone),
+            Err(_) => Err(Ending::Stalled(self.stall_timeout)),
+        }
+    }
+
+    /// Sends a queued acknowledgement or error; returns the generation acknowledged.
+    async fn control(&self, c: Control, acked: &mut u64) -> Result<(), Ending> {
+        match c {
+            Control::Ack { update, generation } => {
+                *acked = generation;
+                self.send(event(generation, session_event::Kind::Ack(SessionAck { update }))).await
+            }
+            Control::Error { update, generation, field, message } => {
+                let e = SessionError { update, field, message };
+                self.send(event(generation, session_event::Kind::Error(e))).await
+            }
+        }
+    }
+
+    async fn run(&self, mut ctrl: mpsc::Receiver<Control>, mailbox: &Mailbox) -> Ending {
+        let (mut acked, mut announced) = (0u64, 0u64);
+        loop {
+            let result = tokio::select! {
+                biased;
+                c = ctrl.recv() => match c {
+                    Some(c) => self.control(c, &mut acked).await,
+                    None => return Ending::ClientDone,
+                },
+                () = mailbox.ready.notified() => {
+                    self.frame(&mut ctrl, mailbox, &mut acked, &mut announced).await
+                }
+            };
+            if let Err(ending) = result {
+                return ending;
+            }
+        }
+    }
+
+    /// Sends the mailbox's frame, unless a newer change is acknowledged before or while it goes.
+    async fn frame(
+        &self,
+        ctrl: &mut mpsc::Receiver<Control>,
+        mailbox: &Mailbox,
+        acked: &mut u64,
+        announced: &mut u64,
+    ) -> Result<(), Ending> {
+        let (Some((job, frame)), dropped) = mailbox.take() else { return Ok(()) };
+        let g = job.generation;
+        if wire::check_frame(&frame, &job.outputs, &job.components).is_err() || g < *acked {
+            mailbox.count_dropped();
+            return Ok(());
+        }
+        if *announced != g {
+            self.send(event(g, session_event::Kind::Started(job.started.clone()))).await?;
+            *announced = g;
+        }
+        let rows = wire::rows_per_chunk(frame.width, &job.outputs, &job.components, self.max_chunk_bytes);
+        for (y0, n) in wire::chunk_bands(frame.height, rows) {
+            // Acknowledgements go first; a frame they make stale stops here.
+            while let Ok(c) = ctrl.try_recv() {
+                self.control(c, acked).await?;
+            }
+            if g < *acked {
+                mailbox.count_dropped();
+                return Ok(());
+            }
+            let chunk = wire::encode_rows(&frame, &job.outputs, &job.components, y0, n);
+            self.send(event(g, session_event::Kind::Chunk(chunk))).await?;
+        }
+        let complete = FrameComplete::from(&frame.stats);
+        let mut e = event(g, session_event::Kind::FrameComplete(complete));
+        e.frames_dropped = dropped;
+        self.send(e).await
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::proto::{CameraOverride, RenderSettings, Vec3};
+
+    #[test]
+    fn updates_replace_only_what_they_set() {
+        let base = RenderRequest {
+            width: 32,
+            height: 24,
+            camera: Some(CameraOverride { vertical_fov_deg: Some(40.0), ..Default::default() }),
+            settings: Some(RenderSettings { max_passes: 3, ..Default::default() }),
+            ..Default::default()
+        };
+        let u = SessionUpdate {
+            camera: Some(CameraOverride { position: Some(Vec3 { x: 1.0, y: 2.0, z: 3.0 }), ..Default::default() }),
+            height: 30,
+            ..Default::default()
+        };
+        let next = apply_update(&base, &u);
+        assert_eq!((next.width, next.height), (32, 30));
+        let cam = next.camera.unwrap();
+        assert_eq!(cam.vertical_fov_deg, Some(40.0));
+        assert_eq!(cam.position, Some(Vec3 { x: 1.0, y: 2.0, z: 3.0 }));
+        assert_eq!(next.settings.unwrap().max_passes, 3);
+    }
+
+    #[test]
+    fn a_waiting_frame_replaced_counts_as_dropped() {
+        let mailbox = Mailbox::default();
+        let (frame, job) = (Frame::default(), test_job());
+        mailbox.put(&job, &frame);
+        mailbox.put(&job, &frame);
+        mailbox.put(&job, &frame);
+        let (taken, dropped) = mailbox.take();
+        assert!(taken.is_some());
+        assert_eq!(dropped, 2);
+        assert!(mailbox.take().0.is_none());
+    }
+
+    fn test_job() -> Arc<GenerationJob> {
+        let req = RenderRequest {
+            scene_source: Some(crate::proto::render_request::SceneSource::Builtin("cornell".into())),
+            width: 8,
+            height: 6,
+            ..Default::default()
+        };
+        let prepared = request::prepare(&req, &request::Limits::default(), None, "cornell").unwrap();
+        Arc::new(GenerationJob::new(1, prepared, &req))
+    }
+}

@@ -1,0 +1,317 @@
+//! Editing sessions and stored scenes against a real server on 127.0.0.1: open, orbit, pause,
+//! in-band errors, no frame of an older generation after an acknowledgement, a slow reader
+//! skipping frames, cancellation, idle timeout, slots; scenes stored by digest.
+mod common;
+
+use common::*;
+use std::time::Duration;
+use tokio::sync::mpsc;
+use tokio_stream::wrappers::ReceiverStream;
+use tonic::Code;
+use wedge::pipeline::frame::Frame;
+use wedge::proto::{
+    render_request::SceneSource, render_update, session_event::Kind, session_request, CameraOverride, PutSceneRequest,
+    RenderRequest, RenderSettings, RenderUpdate, SessionEvent, SessionRequest, SessionUpdate, Vec3,
+};
+use wedge::server::{FrameAssembler, ServerConfig};
+
+struct Session {
+    tx: mpsc::Sender<SessionRequest>,
+    events: tonic::Streaming<SessionEvent>,
+    asm: FrameAssembler,
+}
+
+impl Session {
+    async fn open(server: &TestServer, req: RenderRequest) -> Result<Session, tonic::Status> {
+        let (tx, rx) = mpsc::channel(16);
+        tx.send(SessionRequest { kind: Some(session_request::Kind::Open(req)) }).await.unwrap();
+        let events = server.client().await.session(ReceiverStream::new(rx)).await?.into_inner();
+        Ok(Session { tx, events, asm: FrameAssembler::new() })
+    }
+
+    async fn update(&self, u: SessionUpdate) {
+        self.tx.send(SessionRequest { kind: Some(session_request::Kind::Update(u)) }).await.expect("session open");
+    }
+
+    async fn next(&mut self) -> Result<Option<SessionEvent>, tonic::Status> {
+        within(60, "a session event", self.events.message()).await
+    }
+
+    /// Events until the final frame of `generation`; the frames (each with its generation) and
+    /// every event seen.
+    async fn until_final(&mut self, generation: u64) -> (Vec<(u64, Frame)>, Vec<SessionEvent>) {
+        let (mut frames, mut seen) = (Vec::new(), Vec::new());
+        loop {
+            let e = self.next().await.expect("session ok").expect("session open");
+            seen.push(e.clone());
+            let g = e.generation;
+            let kind = match e.kind.clone().expect("an event kind") {
+                Kind::Started(s) => {
+                    self.asm = FrameAssembler::new();
+                    render_update::Kind::Started(s)
+                }
+                Kind::Chunk(c) => render_update::Kind::Chunk(c),
+                Kind::FrameComplete(f) => render_update::Kind::FrameComplete(f),
+                Kind::Ack(_) | Kind::Error(_) => continue,
+            };
+            if let Some(frame) = self.asm.push(RenderUpdate { kind: Some(kind) }).expect("well-formed") {
+                let is_final = frame.stats.is_final;
+                frames.push((g, frame));
+                if is_final && g == generation {
+                    return (frames, seen);
+                }
+            }
+        }
+    }
+}
+
+fn open_req(passes: u32, seed: u64) -> RenderRequest {
+    let mut req = cornell(24, 18, passes, seed);
+    req.frame_every = 0;
+    req
+}
+
+fn moved_camera() -> CameraOverride {
+    CameraOverride { position: Some(Vec3 { x: 200.0, y: 300.0, z: -700.0 }), ..Default::default() }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_camera_change_renders_the_new_view_exactly_as_a_fresh_render() {
+    let server = TestServer::start().await;
+    let mut s = Session::open(&server, open_req(2, 7)).await.expect("session opens");
+    let (first, _) = s.until_final(1).await;
+    s.update(SessionUpdate { camera: Some(moved_camera()), ..Default::default() }).await;
+    let (frames, seen) = s.until_final(2).await;
+
+    // The acknowledgement comes first, and nothing of generation 1 follows it.
+    let ack = seen.iter().position(|e| matches!(e.kind, Some(Kind::Ack(_)))).expect("an ack");
+    assert_eq!(seen[ack].generation, 2);
+    assert!(matches!(seen[ack].kind, Some(Kind::Ack(ref a)) if a.update == 2));
+    assert!(seen[ack..].iter().all(|e| e.generation >= 2), "a generation-1 event after the ack");
+    let last = &frames.last().unwrap().1;
+    assert_ne!(color_bits(last), color_bits(&first.last().unwrap().1), "the view changed");
+
+    // The same request as a plain Render: bit-identical.
+    let mut fresh = open_req(2, 7);
+    fresh.camera = Some(moved_camera());
+    let expected = collect(&mut server.client().await, fresh).await.expect("render");
+    assert_eq!(color_bits(last), color_bits(expected.frames.last().unwrap()));
+    assert_eq!(server.state.metrics.active_sessions(), 1);
+    drop(s);
+    assert!(wait_until(Duration::from_secs(30), || server.state.metrics.active_sessions() == 0).await);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_bad_change_is_refused_in_band_and_the_session_goes_on() {
+    let server = TestServer::start().await;
+    let mut s = Session::open(&server, open_req(1, 1)).await.expect("session opens");
+    s.until_final(1).await;
+    let bad = CameraOverride { vertical_fov_deg: Some(200.0), ..Default::default() };
+    s.update(SessionUpdate { camera: Some(bad), ..Default::default() }).await;
+    let e = s.next().await.unwrap().unwrap();
+    let Some(Kind::Error(err)) = e.kind else { panic!("expected an error, got {e:?}") };
+    assert_eq!((e.generation, err.update), (1, 2));
+    assert_eq!(err.field, "camera.vertical_fov_deg", "{err:?}");
+    // Still open: a good change is applied.
+    s.update(SessionUpdate { width: 16, height: 12, ..Default::default() }).await;
+    let (frames, _) = s.until_final(2).await;
+    let f = &frames.last().unwrap().1;
+    assert_eq!((f.width, f.height), (16, 12));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn pause_stops_frames_until_resume() {
+    let server = TestServer::start().await;
+    let mut req = open_req(60, 2);
+    if let Some(s) = req.settings.as_mut() {
+        s.time_budget_seconds = 600.0;
+        s.max_mean_spp = 60000.0;
+    }
+    let mut s = Session::open(&server, req).await.expect("session opens");
+    // Some frames of generation 1, then pause.
+    loop {
+        let e = s.next().await.unwrap().unwrap();
+        if matches!(e.kind, Some(Kind::FrameComplete(_))) {
+            break;
+        }
+    }
+    s.update(SessionUpdate { pause: true, ..Default::default() }).await;
+    loop {
+        let e = s.next().await.unwrap().unwrap();
+        if let Some(Kind::Ack(_)) = e.kind {
+            assert_eq!(e.generation, 2);
+            break;
+        }
+    }
+    assert!(
+        wait_until(Duration::from_secs(30), || server.state.active_renders() == 0).await,
+        "paused: nothing renders"
+    );
+    let quiet = tokio::time::timeout(Duration::from_millis(300), s.events.message()).await;
+    assert!(quiet.is_err(), "an event while paused: {quiet:?}");
+    s.update(SessionUpdate { resume: true, ..Default::default() }).await;
+    let e = s.next().await.unwrap().unwrap();
+    assert!(matches!(e.kind, Some(Kind::Ack(_))) && e.generation == 3, "{e:?}");
+    let e = s.next().await.unwrap().unwrap();
+    assert!(matches!(e.kind, Some(Kind::Started(_))) && e.generation == 3, "{e:?}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_slow_reader_gets_the_newest_frames_and_skips_the_rest() {
+    let server = TestServer::start().await;
+    // Frames of every layer at 320x240 (2.4 MB each) fill the transport's buffers within a
+    // frame or two.
+    let mut req = open_req(40, 3);
+    req.width = 320;
+    req.height = 240;
+    req.outputs = Some(wedge::proto::OutputSelection {
+        color: true,
+        spp: true,
+        filter_width: true,
+        unfiltered: true,
+        ..Default::default()
+    });
+    if let Some(s) = req.settings.as_mut() {
+        s.max_mean_spp = 64.0;
+        s.bounces = Some(0);
+    }
+    let mut s = Session::open(&server, req).await.expect("session opens");
+    // Do not read while the render runs its passes.
+    assert!(wait_until(Duration::from_secs(60), || server.state.renders_finished() == 1).await);
+    let (frames, seen) = s.until_final(1).await;
+    let dropped = seen.iter().map(|e| e.frames_dropped).max().unwrap();
+    let passes = u64::from(frames.last().unwrap().1.stats.pass) + 1;
+    assert!(dropped > 0, "nothing was skipped ({} frames of {passes} passes)", frames.len());
+    assert_eq!(frames.len() as u64 + dropped, passes, "every pass is sent or counted as dropped");
+    // Frames go out in order, the newest each time.
+    assert!(frames.windows(2).all(|w| w[0].1.stats.pass < w[1].1.stats.pass));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn cancelling_a_session_stops_its_render_and_frees_its_slot() {
+    let server = TestServer::with_config(ServerConfig { max_concurrent_renders: 1, ..Default::default() }).await;
+    let mut s = Session::open(&server, {
+        let mut r = long_render(4);
+        r.frame_every = 0;
+        r
+    })
+    .await
+    .expect("opens");
+    s.next().await.unwrap().unwrap();
+    // A session holds its slot.
+    let busy = server.client().await.render(cornell(8, 6, 1, 1)).await.expect_err("no slot left");
+    assert_eq!(busy.code(), Code::ResourceExhausted);
+    assert_eq!(server.state.active_renders(), 1);
+    drop(s);
+    assert!(wait_until(Duration::from_secs(30), || server.state.active_renders() == 0).await, "the render still runs");
+    assert!(wait_until(Duration::from_secs(30), || server.state.metrics.active_sessions() == 0).await);
+    collect(&mut server.client().await, cornell(8, 6, 1, 1)).await.expect("the slot is free again");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_session_must_open_first_and_ends_when_idle() {
+    let config = ServerConfig { session_idle_timeout: Duration::from_millis(300), ..Default::default() };
+    let server = TestServer::with_config(config).await;
+    let (tx, rx) = mpsc::channel(4);
+    tx.send(SessionRequest { kind: Some(session_request::Kind::Update(SessionUpdate::default())) }).await.unwrap();
+    let err = server.client().await.session(ReceiverStream::new(rx)).await.expect_err("not opened");
+    assert_eq!(err.code(), Code::InvalidArgument);
+    assert!(err.message().starts_with("open:"), "{}", err.message());
+
+    let mut s = Session::open(&server, open_req(1, 1)).await.expect("opens");
+    s.until_final(1).await;
+    let end = loop {
+        match s.next().await {
+            Ok(Some(_)) => continue,
+            Ok(None) => panic!("ended with OK"),
+            Err(status) => break status,
+        }
+    };
+    assert_eq!(end.code(), Code::DeadlineExceeded, "{end:?}");
+    assert!(end.message().contains("idle"), "{}", end.message());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn stored_scenes_are_named_by_digest() {
+    let server = TestServer::start().await;
+    let scene = wedge::scene::builtin::get("cornell").unwrap();
+    let mut client = server.client().await;
+    let put = client.put_scene(PutSceneRequest { scene: Some(scene.clone()) }).await.expect("stored").into_inner();
+    assert_eq!(put.digest, wedge::server::scene_cache::digest(&scene));
+    assert_eq!(
+        put.triangles,
+        u64::try_from(wedge::scene::compile(&scene, &Default::default(), None).unwrap().triangle_count()).unwrap()
+    );
+
+    // By digest, the same pixels as inline.
+    let mut by_digest = cornell(16, 12, 2, 5);
+    by_digest.scene_source = Some(SceneSource::SceneDigest(put.digest.clone()));
+    let mut inline = cornell(16, 12, 2, 5);
+    inline.scene_source = Some(SceneSource::Scene(scene));
+    let a = collect(&mut client, by_digest.clone()).await.expect("render by digest");
+    let b = collect(&mut client, inline).await.expect("render inline");
+    assert_eq!(color_bits(a.frames.last().unwrap()), color_bits(b.frames.last().unwrap()));
+
+    // A session by digest.
+    let mut s = Session::open(&server, by_digest).await.expect("session by digest");
+    let (frames, _) = s.until_final(1).await;
+    assert_eq!(color_bits(&frames.last().unwrap().1), color_bits(a.frames.last().unwrap()));
+    drop(s);
+
+    // Unknown and malformed digests.
+    let unknown = format!("sha256:{}", "0".repeat(64));
+    let mut req = cornell(8, 6, 1, 1);
+    req.scene_source = Some(SceneSource::SceneDigest(unknown.clone()));
+    let err = client.render(req.clone()).await.expect_err("unknown digest");
+    assert_eq!(err.code(), Code::FailedPrecondition);
+    assert!(err.message().contains(&unknown) && err.message().contains("PutScene"), "{}", err.message());
+    let err = Session::open(&server, req).await.err().expect("unknown digest");
+    assert_eq!(err.code(), Code::FailedPrecondition);
+    let mut req = cornell(8, 6, 1, 1);
+    req.scene_source = Some(SceneSource::SceneDigest("sha256:nope".into()));
+    assert_eq!(client.render(req).await.expect_err("malformed").code(), Code::InvalidArgument);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_scene_store_evicts_and_the_client_uploads_again() {
+    // Room for one Cornell box (by triangles): storing a second scene evicts the first.
+    let cornell_triangles = 32;
+    let config = ServerConfig { scene_cache_triangles: cornell_triangles + 8, ..Default::default() };
+    let server = TestServer::with_config(config).await;
+    let mut client = server.client().await;
+    let a = wedge::scene::builtin::get("cornell").unwrap();
+    let mut b = a.clone();
+    b.description = "another".into();
+    let da = client.put_scene(PutSceneRequest { scene: Some(a.clone()) }).await.unwrap().into_inner();
+    assert_eq!(da.triangles, cornell_triangles);
+    client.put_scene(PutSceneRequest { scene: Some(b) }).await.unwrap();
+    let mut req = cornell(8, 6, 1, 1);
+    req.scene_source = Some(SceneSource::SceneDigest(da.digest.clone()));
+    assert_eq!(client.render(req.clone()).await.expect_err("evicted").code(), Code::FailedPrecondition);
+    client.put_scene(PutSceneRequest { scene: Some(a) }).await.unwrap();
+    collect(&mut client, req).await.expect("stored again");
+    // A scene larger than the whole store is refused.
+    let big = wedge::scene::builtin::get("interior").unwrap();
+    let err = client.put_scene(PutSceneRequest { scene: Some(big) }).await.expect_err("too large");
+    assert_eq!(err.code(), Code::ResourceExhausted);
+    assert!(err.message().contains("scene_cache_triangles"), "{}", err.message());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn settings_changes_apply_without_a_new_compile() {
+    let server = TestServer::start().await;
+    let mut s = Session::open(&server, open_req(1, 9)).await.expect("opens");
+    s.until_final(1).await;
+    let settings = RenderSettings {
+        method: wedge::proto::Method::Uniform as i32,
+        max_passes: 2,
+        bounces: Some(0),
+        ..Default::default()
+    };
+    s.update(SessionUpdate { settings: Some(settings), ..Default::default() }).await;
+    let (frames, _) = s.until_final(2).await;
+    let mut fresh = open_req(1, 9);
+    fresh.settings = Some(settings);
+    let expected = collect(&mut server.client().await, fresh).await.expect("render");
+    assert_eq!(color_bits(&frames.last().unwrap().1), color_bits(expected.frames.last().unwrap()));
+}
