@@ -182,9 +182,11 @@ async fn a_slow_reader_gets_the_newest_frames_and_skips_the_rest() {
     let dropped = seen.iter().map(|e| e.frames_dropped).max().unwrap();
     let passes = u64::from(frames.last().unwrap().1.stats.pass) + 1;
     assert!(dropped > 0, "nothing was skipped ({} frames of {passes} passes)", frames.len());
-    assert_eq!(frames.len() as u64 + dropped, passes, "every pass is sent or counted as dropped");
-    // Frames go out in order, the newest each time.
-    assert!(frames.windows(2).all(|w| w[0].1.stats.pass < w[1].1.stats.pass));
+    // Every pass, and the quick preview before them, is sent or counted as dropped.
+    assert_eq!(frames.len() as u64 + dropped, passes + 1);
+    // Full-resolution frames go out in order, the newest each time.
+    let full: Vec<&Frame> = frames.iter().map(|(_, f)| f).filter(|f| f.width == 320).collect();
+    assert!(full.windows(2).all(|w| w[0].stats.pass < w[1].stats.pass));
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -314,4 +316,46 @@ async fn settings_changes_apply_without_a_new_compile() {
     fresh.settings = Some(settings);
     let expected = collect(&mut server.client().await, fresh).await.expect("render");
     assert_eq!(color_bits(&frames.last().unwrap().1), color_bits(expected.frames.last().unwrap()));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn closing_the_request_side_ends_the_session_with_ok() {
+    let server = TestServer::start().await;
+    let mut s = Session::open(&server, open_req(1, 1)).await.expect("opens");
+    s.until_final(1).await;
+    let Session { tx, mut events, .. } = s;
+    drop(tx);
+    let end = within(10, "the end of the session", async {
+        loop {
+            match events.message().await {
+                Ok(Some(_)) => continue,
+                other => return other,
+            }
+        }
+    })
+    .await;
+    assert!(matches!(end, Ok(None)), "{end:?}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_large_view_shows_a_quick_preview_first() {
+    let server = TestServer::start().await;
+    let mut req = open_req(2, 3);
+    req.width = 320;
+    req.height = 240;
+    let mut s = Session::open(&server, req).await.expect("opens");
+    s.until_final(1).await;
+    s.update(SessionUpdate { camera: Some(moved_camera()), ..Default::default() }).await;
+    let (frames, seen) = s.until_final(2).await;
+    let started: Vec<&SessionEvent> =
+        seen.iter().filter(|e| e.generation == 2 && matches!(e.kind, Some(Kind::Started(_)))).collect();
+    assert_eq!(started.len(), 2, "a preview's started, then the full resolution's");
+    assert_eq!((started[0].preview_divider, started[1].preview_divider), (4, 0));
+    let gen2: Vec<&Frame> = frames.iter().filter(|(g, _)| *g == 2).map(|(_, f)| f).collect();
+    assert_eq!((gen2[0].width, gen2[0].height), (80, 60));
+    assert!(!gen2[0].stats.is_final, "a preview is never final");
+    let last = gen2.last().unwrap();
+    assert_eq!((last.width, last.height), (320, 240));
+    let previews = seen.iter().filter(|e| matches!(e.kind, Some(Kind::FrameComplete(_))) && e.preview_divider == 4);
+    assert_eq!(previews.count(), 1);
 }

@@ -8,6 +8,7 @@ pub mod plot;
 pub mod rays;
 pub mod reference;
 pub mod run;
+pub mod session;
 pub mod throughput;
 
 /// Median of a non-empty sample (the mean of the middle two for even counts).

@@ -143,6 +143,30 @@ pub enum BenchKind {
         #[arg(long)]
         addr: Option<String>,
     },
+    /// Camera-update latency of an editing session: an orbit of camera changes over gRPC, per
+    /// method; prints `METHOD: median N ms, p95 M ms, dropped K of T` per method.
+    Session {
+        #[arg(long, default_value = "cornell")]
+        scene: String,
+        #[arg(long, default_value_t = 320)]
+        width: u32,
+        #[arg(long, default_value_t = 240)]
+        height: u32,
+        /// Camera changes sent, and how many per second.
+        #[arg(long, default_value_t = 60)]
+        updates: usize,
+        #[arg(long, default_value_t = 30.0)]
+        rate: f64,
+        /// Degrees the orbit sweeps around the scene camera's look-at point.
+        #[arg(long, default_value_t = 60.0)]
+        sweep: f32,
+        /// Methods to time (repeatable); default: every method.
+        #[arg(long)]
+        method: Vec<String>,
+        /// Use this server instead of one started in-process.
+        #[arg(long)]
+        addr: Option<String>,
+    },
 }
 
 /// What `bench rays` compares on the same rays: wedge's default BVH (8-wide with AVX2, leaves
@@ -293,16 +317,47 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             println!("\nwithin a factor of 2: {within} of {total}");
             Ok(())
         }
+        BenchKind::Session { scene, width, height, updates, rate, sweep, method, addr } => {
+            let camera = crate::scene::builtin::get(&scene)
+                .and_then(|s| s.camera)
+                .ok_or_else(|| anyhow::anyhow!("--scene: no built-in scene {scene:?} with a camera"))?;
+            let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+            for m in methods_named(&method)? {
+                let req = proto::RenderRequest {
+                    scene_source: Some(proto::render_request::SceneSource::Builtin(scene.clone())),
+                    width,
+                    height,
+                    settings: Some(proto::RenderSettings { method: m.to_proto() as i32, ..Default::default() }),
+                    ..Default::default()
+                };
+                let r = rt.block_on(crate::bench::session::measure(req, camera, updates, rate, sweep, addr.clone()))?;
+                let mut l = r.latencies.clone();
+                l.sort_by(f64::total_cmp);
+                let p95 =
+                    l.get(((l.len() as f64 * 0.95).ceil() as usize).saturating_sub(1)).copied().unwrap_or(f64::NAN);
+                println!(
+                    "{}: median {:.0} ms, p95 {:.0} ms, dropped {} of {}",
+                    m.name(),
+                    median(l.clone()) * 1e3,
+                    p95 * 1e3,
+                    r.dropped,
+                    r.frames + r.dropped
+                );
+                println!(
+                    "  {} of {} views got a frame (a 1/4-resolution preview where the image is large) before the next \
+                     change; {} got a full-resolution frame, median {:.0} ms ({scene} {width}x{height}, {updates} \
+                     changes at {rate} Hz)",
+                    l.len(),
+                    r.updates,
+                    r.full_latencies.len(),
+                    median(r.full_latencies.clone()) * 1e3
+                );
+            }
+            Ok(())
+        }
         BenchKind::Latency { scene, width, height, runs, method, addr } => {
             use crate::pipeline::job::Method;
-            let methods: Vec<Method> = if method.is_empty() {
-                Method::ALL.to_vec()
-            } else {
-                method
-                    .iter()
-                    .map(|m| Method::from_name(m).ok_or_else(|| anyhow::anyhow!("--method: unknown method {m:?}")))
-                    .collect::<anyhow::Result<_>>()?
-            };
+            let methods: Vec<Method> = methods_named(&method)?;
             const FRAMES: usize = 5;
             let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
             println!(
@@ -339,6 +394,18 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// The methods `names` (`--method`, repeatable); all of them when none is named.
+fn methods_named(names: &[String]) -> anyhow::Result<Vec<crate::pipeline::job::Method>> {
+    use crate::pipeline::job::Method;
+    if names.is_empty() {
+        return Ok(Method::ALL.to_vec());
+    }
+    names
+        .iter()
+        .map(|m| Method::from_name(m).ok_or_else(|| anyhow::anyhow!("--method: unknown method {m:?}")))
+        .collect()
 }
 
 fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {

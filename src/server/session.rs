@@ -37,19 +37,20 @@ const EVENT_CAPACITY: usize = 4;
 /// faster than it reads is slowed down here.
 const CONTROL_CAPACITY: usize = 64;
 
-/// A job of one generation, with what the wire needs to send its frames.
-struct GenerationJob {
-    generation: u64,
+/// Most pixels of a quick first frame: the divider is the smallest power of two that brings
+/// the image under it (320x240 previews at 80x60).
+const PREVIEW_PIXELS: u64 = 16_384;
+
+/// A render of one generation: the job, and what the wire needs to send its frames.
+struct Pass {
     prepared: PreparedJob,
     outputs: OutputSelection,
-    frame_every: u32,
     components: Vec<&'static str>,
     started: RenderStarted,
 }
 
-impl GenerationJob {
-    fn new(generation: u64, prepared: PreparedJob, req: &RenderRequest) -> GenerationJob {
-        let outputs = req.outputs.unwrap_or_default();
+impl Pass {
+    fn new(prepared: PreparedJob, outputs: OutputSelection) -> Pass {
         let job = &prepared.job;
         let components = component_names(job);
         let started = RenderStarted {
@@ -61,8 +62,52 @@ impl GenerationJob {
             layers: wire::layer_names(&outputs, &components),
             format: outputs.format,
         };
-        GenerationJob { generation, prepared, outputs, frame_every: req.frame_every.max(1), components, started }
+        Pass { prepared, outputs, components, started }
     }
+}
+
+/// What a generation renders: an optional quick preview, then its job.
+struct GenerationJob {
+    generation: u64,
+    /// The divider and render of the reduced-resolution first frame, when the image is large
+    /// enough to need one.
+    preview: Option<(u32, Pass)>,
+    main: Pass,
+    frame_every: u32,
+}
+
+impl GenerationJob {
+    /// `req` must be the request `prepared` was made from; the preview is prepared from it on
+    /// the same compiled scene.
+    fn new(generation: u64, prepared: PreparedJob, req: &RenderRequest, limits: &request::Limits) -> GenerationJob {
+        let outputs = req.outputs.unwrap_or_default();
+        let preview = preview_divider(prepared.job.width(), prepared.job.height()).and_then(|d| {
+            let job = &prepared.job;
+            let mut small = req.clone();
+            small.width = (job.width() / d).max(1);
+            small.height = (job.height() / d).max(1);
+            let settings = small.settings.get_or_insert_with(Default::default);
+            settings.method = crate::proto::Method::Uniform as i32;
+            (settings.max_passes, settings.max_mean_spp, settings.time_budget_seconds, settings.target_error) =
+                (1, 0.0, 0.0, 0.0);
+            settings.initial_spp = 1;
+            let p = request::prepare_compiled(&small, &prepared.header, Arc::clone(&job.scene), limits, "preview");
+            // Only colour: a preview is for looking at, its maps would mean nothing.
+            let colour = OutputSelection { color: true, format: outputs.format, ..Default::default() };
+            p.ok().map(|p| (d, Pass::new(p, colour)))
+        });
+        GenerationJob { generation, preview, main: Pass::new(prepared, outputs), frame_every: req.frame_every.max(1) }
+    }
+}
+
+/// The preview divider of a `width` x `height` image: None when it is small already.
+fn preview_divider(width: u32, height: u32) -> Option<u32> {
+    let pixels = u64::from(width) * u64::from(height);
+    let mut d = 1u32;
+    while pixels / u64::from(d * d) > PREVIEW_PIXELS && d < 64 {
+        d *= 2;
+    }
+    (d > 1).then_some(d)
 }
 
 /// What control tells the sender.
@@ -71,8 +116,8 @@ enum Control {
     Error { update: u64, generation: u64, field: String, message: String },
 }
 
-/// A frame and the job it belongs to.
-type JobFrame = (Arc<GenerationJob>, Frame);
+/// A frame, the generation it belongs to, and whether it is the preview.
+type JobFrame = (Arc<GenerationJob>, bool, Frame);
 
 /// The one-frame mailbox between the render loop and the sender: the waiting frame, and the
 /// frames dropped so far.
@@ -84,9 +129,12 @@ struct Mailbox {
 
 impl Mailbox {
     /// Leaves `frame` for the sender; a frame still waiting is replaced and counted as dropped.
-    fn put(&self, job: &Arc<GenerationJob>, frame: &Frame) {
+    fn put(&self, job: &Arc<GenerationJob>, preview: bool, frame: &Frame) {
+        let mut frame = frame.clone();
+        // Only full-resolution frames can be final.
+        frame.stats.is_final &= !preview;
         let mut slot = self.frame.lock().unwrap_or_else(|p| p.into_inner());
-        if slot.0.replace((Arc::clone(job), frame.clone())).is_some() {
+        if slot.0.replace((Arc::clone(job), preview, frame)).is_some() {
             slot.1 += 1;
         }
         drop(slot);
@@ -153,7 +201,7 @@ pub async fn start(
         label: label.clone(),
         base: RenderRequest { scene_source: None, ..open.clone() },
     };
-    let first_job = Arc::new(GenerationJob::new(1, prepared, &open));
+    let first_job = Arc::new(GenerationJob::new(1, prepared, &open, &cx.limits));
 
     let (out_tx, out_rx) = mpsc::channel::<EventResult>(EVENT_CAPACITY + 1);
     let final_status = out_tx.clone().reserve_owned().await.map_err(|_| Status::cancelled("client went away"))?;
@@ -288,7 +336,7 @@ async fn control(
         if ctrl.send(Control::Ack { update, generation }).await.is_err() {
             return Ending::ClientGone;
         }
-        let job = (!paused).then(|| Arc::new(GenerationJob::new(generation, prepared, &scene.base)));
+        let job = (!paused).then(|| Arc::new(GenerationJob::new(generation, prepared, &scene.base, &limits)));
         if jobs.send(job).is_err() {
             return Ending::ClientGone;
         }
@@ -308,8 +356,14 @@ async fn render_loop(
             let (c, m, g) = (cancel.clone(), Arc::clone(&mailbox), Arc::clone(&gen_job));
             let mut active = state.begin_render();
             let (result, changed) = runner::spawn((), cancel, jobs.changed(), move || {
-                runner::run(&g.prepared.job, &c, g.frame_every, &mut |frame| {
-                    m.put(&g, frame);
+                if let Some((_, preview)) = &g.preview {
+                    runner::run(&preview.prepared.job, &c, 1, &mut |frame| {
+                        m.put(&g, true, frame);
+                        Ok::<(), ()>(())
+                    })?;
+                }
+                runner::run(&g.main.prepared.job, &c, g.frame_every, &mut |frame| {
+                    m.put(&g, false, frame);
                     Ok::<(), ()>(())
                 })
             })
@@ -340,7 +394,7 @@ struct Sender {
 }
 
 fn event(generation: u64, kind: session_event::Kind) -> SessionEvent {
-    SessionEvent { generation, kind: Some(kind), frames_dropped: 0 }
+    SessionEvent { generation, kind: Some(kind), frames_dropped: 0, preview_divider: 0 }
 }
 
 impl Sender {
@@ -367,7 +421,8 @@ impl Sender {
     }
 
     async fn run(&self, mut ctrl: mpsc::Receiver<Control>, mailbox: &Mailbox) -> Ending {
-        let (mut acked, mut announced) = (0u64, 0u64);
+        // The generation and preview flag whose `started` was sent last.
+        let (mut acked, mut announced) = (0u64, (0u64, false));
         loop {
             let result = tokio::select! {
                 biased;
@@ -391,19 +446,25 @@ impl Sender {
         ctrl: &mut mpsc::Receiver<Control>,
         mailbox: &Mailbox,
         acked: &mut u64,
-        announced: &mut u64,
+        announced: &mut (u64, bool),
     ) -> Result<(), Ending> {
-        let (Some((job, frame)), dropped) = mailbox.take() else { return Ok(()) };
+        let (Some((job, preview, frame)), dropped) = mailbox.take() else { return Ok(()) };
         let g = job.generation;
-        if wire::check_frame(&frame, &job.outputs, &job.components).is_err() || g < *acked {
+        let (divider, pass) = match (&job.preview, preview) {
+            (Some((d, p)), true) => (*d, p),
+            _ => (0, &job.main),
+        };
+        if wire::check_frame(&frame, &pass.outputs, &pass.components).is_err() || g < *acked {
             mailbox.count_dropped();
             return Ok(());
         }
-        if *announced != g {
-            self.send(event(g, session_event::Kind::Started(job.started.clone()))).await?;
-            *announced = g;
+        if *announced != (g, preview) {
+            let mut e = event(g, session_event::Kind::Started(pass.started.clone()));
+            e.preview_divider = divider;
+            self.send(e).await?;
+            *announced = (g, preview);
         }
-        let rows = wire::rows_per_chunk(frame.width, &job.outputs, &job.components, self.max_chunk_bytes);
+        let rows = wire::rows_per_chunk(frame.width, &pass.outputs, &pass.components, self.max_chunk_bytes);
         for (y0, n) in wire::chunk_bands(frame.height, rows) {
             // Acknowledgements go first; a frame they make stale stops here.
             while let Ok(c) = ctrl.try_recv() {
@@ -413,12 +474,13 @@ impl Sender {
                 mailbox.count_dropped();
                 return Ok(());
             }
-            let chunk = wire::encode_rows(&frame, &job.outputs, &job.components, y0, n);
+            let chunk = wire::encode_rows(&frame, &pass.outputs, &pass.components, y0, n);
             self.send(event(g, session_event::Kind::Chunk(chunk))).await?;
         }
         let complete = FrameComplete::from(&frame.stats);
         let mut e = event(g, session_event::Kind::FrameComplete(complete));
         e.frames_dropped = dropped;
+        e.preview_divider = divider;
         self.send(e).await
     }
 }
@@ -454,9 +516,9 @@ mod tests {
     fn a_waiting_frame_replaced_counts_as_dropped() {
         let mailbox = Mailbox::default();
         let (frame, job) = (Frame::default(), test_job());
-        mailbox.put(&job, &frame);
-        mailbox.put(&job, &frame);
-        mailbox.put(&job, &frame);
+        mailbox.put(&job, false, &frame);
+        mailbox.put(&job, false, &frame);
+        mailbox.put(&job, false, &frame);
         let (taken, dropped) = mailbox.take();
         assert!(taken.is_some());
         assert_eq!(dropped, 2);
@@ -470,7 +532,19 @@ mod tests {
             height: 6,
             ..Default::default()
         };
-        let prepared = request::prepare(&req, &request::Limits::default(), None, "cornell").unwrap();
-        Arc::new(GenerationJob::new(1, prepared, &req))
+        let limits = request::Limits::default();
+        let prepared = request::prepare(&req, &limits, None, "cornell").unwrap();
+        Arc::new(GenerationJob::new(1, prepared, &req, &limits))
+    }
+
+    #[test]
+    fn previews_stay_under_their_pixel_budget() {
+        assert_eq!(preview_divider(64, 48), None);
+        assert_eq!(preview_divider(320, 240), Some(4));
+        assert_eq!(preview_divider(1920, 1080), Some(16));
+        for (w, h) in [(128, 128), (129, 128), (4096, 4096), (10_000, 1)] {
+            let d = preview_divider(w, h).unwrap_or(1);
+            assert!(u64::from(w) * u64::from(h) / u64::from(d * d) <= PREVIEW_PIXELS, "{w}x{h}: {d}");
+        }
     }
 }
