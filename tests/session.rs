@@ -97,6 +97,11 @@ async fn a_camera_change_renders_the_new_view_exactly_as_a_fresh_render() {
     let expected = collect(&mut server.client().await, fresh).await.expect("render");
     assert_eq!(color_bits(last), color_bits(expected.frames.last().unwrap()));
     assert_eq!(server.state.metrics.active_sessions(), 1);
+    // Session frames count in the metrics: a first frame for each of the two generations, and
+    // the plain render's.
+    let text = server.state.metrics.encode();
+    let first_frames = text.lines().find_map(|l| l.strip_prefix("wedge_first_frame_seconds_count "));
+    assert_eq!(first_frames, Some("3"), "{text}");
     drop(s);
     assert!(wait_until(Duration::from_secs(30), || server.state.metrics.active_sessions() == 0).await);
 }

@@ -214,7 +214,13 @@ pub async fn start(
     info!(request = rid, scene = %Escaped(&label), "session opened");
 
     let (limits, idle) = (cx.limits, cx.idle_timeout);
-    let sender = Sender { out: out_tx, max_chunk_bytes: cx.max_chunk_bytes, stall_timeout: cx.stall_timeout };
+    let sender = Sender {
+        out: out_tx,
+        max_chunk_bytes: cx.max_chunk_bytes,
+        stall_timeout: cx.stall_timeout,
+        state: Arc::clone(&state),
+        clock: Mutex::new(FrameClock::new()),
+    };
     let render = tokio::spawn(render_loop(job_rx, Arc::clone(&mailbox), Arc::clone(&state)));
     tokio::spawn(async move {
         // The slot and the active-session count last as long as the session.
@@ -391,6 +397,25 @@ struct Sender {
     out: mpsc::Sender<EventResult>,
     max_chunk_bytes: usize,
     stall_timeout: Duration,
+    /// The server's metrics, and what they need to time a session's frames.
+    state: Arc<ServerState>,
+    clock: Mutex<FrameClock>,
+}
+
+/// When the newest change was acknowledged, when its last frame went out, and the rays of the
+/// render (preview or main) that frame came from.
+struct FrameClock {
+    generation: u64,
+    preview: bool,
+    accepted: std::time::Instant,
+    last: Option<std::time::Instant>,
+    rays: u64,
+}
+
+impl FrameClock {
+    fn new() -> FrameClock {
+        FrameClock { generation: 0, preview: false, accepted: std::time::Instant::now(), last: None, rays: 0 }
+    }
 }
 
 fn event(generation: u64, kind: session_event::Kind) -> SessionEvent {
@@ -411,6 +436,7 @@ impl Sender {
         match c {
             Control::Ack { update, generation } => {
                 *acked = generation;
+                self.clock.lock().unwrap_or_else(|p| p.into_inner()).accepted = std::time::Instant::now();
                 self.send(event(generation, session_event::Kind::Ack(SessionAck { update }))).await
             }
             Control::Error { update, generation, field, message } => {
@@ -481,7 +507,27 @@ impl Sender {
         let mut e = event(g, session_event::Kind::FrameComplete(complete));
         e.frames_dropped = dropped;
         e.preview_divider = divider;
-        self.send(e).await
+        self.send(e).await?;
+        self.count(g, preview, &frame);
+        Ok(())
+    }
+
+    /// Records a frame sent in the server's metrics: the first of a generation as the latency
+    /// from its acknowledgement, later ones as intervals; the rays since the previous frame.
+    fn count(&self, generation: u64, preview: bool, frame: &Frame) {
+        let now = std::time::Instant::now();
+        let mut c = self.clock.lock().unwrap_or_else(|p| p.into_inner());
+        let first = c.generation != generation;
+        if first {
+            (c.generation, c.last) = (generation, None);
+        }
+        if first || c.preview != preview {
+            (c.preview, c.rays) = (preview, 0);
+        }
+        let rays = frame.stats.rays_traced.saturating_sub(c.rays);
+        c.rays = frame.stats.rays_traced;
+        let since_previous = c.last.replace(now).map(|t| (now - t).as_secs_f64());
+        self.state.metrics.frame_sent((now - c.accepted).as_secs_f64(), since_previous, rays);
     }
 }
 
