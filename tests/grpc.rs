@@ -417,16 +417,7 @@ async fn renders_past_the_shutdown_grace_period_are_cancelled() {
     within(60, "first frame", next_frame_complete(&mut stream)).await;
     server.begin_shutdown();
     // The render would run for minutes; the grace period ends it with UNAVAILABLE.
-    let status = within(30, "stream end", async {
-        loop {
-            match stream.message().await {
-                Ok(Some(_)) => continue,
-                Ok(None) => panic!("the stream ended without a status"),
-                Err(s) => return s,
-            }
-        }
-    })
-    .await;
+    let status = within(30, "stream end", final_status(&mut stream)).await;
     assert_eq!(status.code(), Code::Unavailable, "{status:?}");
     assert!(status.message().contains("shutting down"), "{}", status.message());
     let state = std::sync::Arc::clone(&server.state);

@@ -29,17 +29,6 @@ fn heavy_long_render(seed: u64) -> RenderRequest {
     req
 }
 
-/// Reads a stream to its end and returns its final status.
-async fn final_status(stream: &mut tonic::Streaming<wedge::proto::RenderUpdate>) -> tonic::Status {
-    loop {
-        match stream.message().await {
-            Ok(Some(_)) => continue,
-            Ok(None) => panic!("the stream ended with OK"),
-            Err(s) => return s,
-        }
-    }
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_health_watch_does_not_hold_the_shutdown() {
     let config = ServerConfig { shutdown_grace: Duration::from_millis(300), ..Default::default() };

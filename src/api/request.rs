@@ -95,10 +95,10 @@ pub fn prepare(
         None => return err("scene", "a scene or the name of a built-in scene is required"),
     };
     apply_overrides(req, &mut scene)?;
-    // Settings errors before the (costly) compile; `job_for` checks them again with the rest.
+    // Settings errors before the (costly) compile; `prepare_compiled` checks them again.
     validate_settings(&merge_settings(scene.settings.as_ref(), req.settings.as_ref()), limits)?;
     let compiled = compile_scene(&scene, limits, base_dir).map_err(|e| name_override(e, req))?;
-    job_for(req, &header(&scene), Arc::new(compiled), limits, scene_label)
+    prepare_compiled(req, &header(&scene), Arc::new(compiled), limits, scene_label)
 }
 
 /// Validates and compiles a scene as it stands (its own camera) for `prepare_compiled`,
@@ -127,8 +127,17 @@ pub fn header(scene: &proto::Scene) -> proto::Scene {
     }
 }
 
-/// A job for `req` on a scene compiled before (stored by digest, or a session's): the request's
-/// camera, size and settings override the `header`'s, and no geometry is compiled again.
+fn scene_limits(limits: &Limits) -> SceneLimits {
+    SceneLimits {
+        max_triangles: limits.max_triangles,
+        max_pixels: limits.max_pixels,
+        mesh_root: limits.mesh_root.clone(),
+    }
+}
+
+/// A job for `req` on a scene compiled before (stored by digest, or a session's; `prepare`
+/// ends here too): the request's camera, size and settings override the `header`'s (the
+/// source's camera and settings), and no geometry is compiled again.
 pub fn prepare_compiled(
     req: &proto::RenderRequest,
     header: &proto::Scene,
@@ -138,26 +147,6 @@ pub fn prepare_compiled(
 ) -> Result<PreparedJob, FieldError> {
     let mut header = header.clone();
     apply_overrides(req, &mut header)?;
-    job_for(req, &header, compiled, limits, scene_label)
-}
-
-fn scene_limits(limits: &Limits) -> SceneLimits {
-    SceneLimits {
-        max_triangles: limits.max_triangles,
-        max_pixels: limits.max_pixels,
-        mesh_root: limits.mesh_root.clone(),
-    }
-}
-
-/// The job of `req` on `compiled`, whose source's camera (with the request's overrides
-/// applied) and settings are in `header`.
-fn job_for(
-    req: &proto::RenderRequest,
-    header: &proto::Scene,
-    compiled: Arc<crate::render::scene::Scene>,
-    limits: &Limits,
-    scene_label: &str,
-) -> Result<PreparedJob, FieldError> {
     let settings = merge_settings(header.settings.as_ref(), req.settings.as_ref());
     let (method, halt, bounces, initial_spp) = validate_settings(&settings, limits)?;
     if let Some(o) = &req.outputs {
@@ -207,7 +196,7 @@ fn job_for(
             bounces,
             camera: cam,
         },
-        header: header.clone(),
+        header,
     })
 }
 

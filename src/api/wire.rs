@@ -129,6 +129,24 @@ pub fn selected_layers(sel: &OutputSelection, components: &[&str]) -> Vec<LayerS
     layers
 }
 
+/// What a stream of `job`'s frames announces first: size, method, seed, triangles, and the
+/// layers every chunk carries (for `outputs` and the job's `components`).
+pub fn render_started(
+    job: &crate::pipeline::job::RenderJob,
+    outputs: &OutputSelection,
+    components: &[&str],
+) -> crate::proto::RenderStarted {
+    crate::proto::RenderStarted {
+        width: job.width(),
+        height: job.height(),
+        method: job.method.to_proto() as i32,
+        seed: job.seed,
+        triangles: u32::try_from(job.scene.triangle_count()).unwrap_or(u32::MAX),
+        layers: layer_names(outputs, components),
+        format: outputs.format,
+    }
+}
+
 /// The layer names `sel` streams, in wire order (as in `RenderStarted.layers`).
 pub fn layer_names(sel: &OutputSelection, components: &[&str]) -> Vec<String> {
     selected_layers(sel, components).into_iter().map(|l| l.name).collect()

@@ -2,7 +2,6 @@
 //! in this process (or a given address).
 use crate::client::connect;
 use crate::proto::{self, render_update::Kind};
-use crate::server::{serve_on, ServerConfig, ServerState};
 use std::time::Instant;
 
 pub struct LatencyReport {
@@ -15,18 +14,7 @@ pub struct LatencyReport {
 /// Runs `runs` renders of `req` on a fresh in-process server (when `addr` is None) and times
 /// each one's frames. The first run warms up and is not counted.
 pub async fn measure(req: proto::RenderRequest, runs: usize, addr: Option<String>) -> anyhow::Result<LatencyReport> {
-    let (addr, shutdown) = match addr {
-        Some(a) => (a, None),
-        None => {
-            let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
-            let local = listener.local_addr()?;
-            let (tx, rx) = tokio::sync::oneshot::channel::<()>();
-            let server = tokio::spawn(serve_on(listener, ServerConfig::default(), ServerState::new(), async {
-                let _ = rx.await;
-            }));
-            (format!("http://{local}"), Some((tx, server)))
-        }
-    };
+    let (addr, local) = crate::bench::bench_server(addr).await?;
     let t = Instant::now();
     let mut client = connect(&addr.as_str().into()).await?;
     let connect_s = t.elapsed().as_secs_f64();
@@ -44,9 +32,8 @@ pub async fn measure(req: proto::RenderRequest, runs: usize, addr: Option<String
             times.push(frames);
         }
     }
-    if let Some((tx, server)) = shutdown {
-        let _ = tx.send(());
-        server.await??;
+    if let Some(server) = local {
+        server.stop().await?;
     }
     Ok(LatencyReport { frames: times, connect: connect_s })
 }

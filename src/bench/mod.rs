@@ -50,6 +50,34 @@ pub fn machine_description() -> String {
     format!("{cpu}, {cores} hardware threads, {} {}", std::env::consts::OS, std::env::consts::ARCH)
 }
 
+/// A wedge server for the service benchmarks: `addr` when given, else one started in this
+/// process on 127.0.0.1 (stop it with `LocalServer::stop`).
+pub async fn bench_server(addr: Option<String>) -> anyhow::Result<(String, Option<LocalServer>)> {
+    if let Some(a) = addr {
+        return Ok((a, None));
+    }
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+    let local = listener.local_addr()?;
+    let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+    let config = crate::server::ServerConfig::default();
+    let task = tokio::spawn(crate::server::serve_on(listener, config, crate::server::ServerState::new(), async {
+        let _ = rx.await;
+    }));
+    Ok((format!("http://{local}"), Some(LocalServer { tx, task })))
+}
+
+pub struct LocalServer {
+    tx: tokio::sync::oneshot::Sender<()>,
+    task: tokio::task::JoinHandle<anyhow::Result<()>>,
+}
+
+impl LocalServer {
+    pub async fn stop(self) -> anyhow::Result<()> {
+        let _ = self.tx.send(());
+        self.task.await?
+    }
+}
+
 #[cfg(test)]
 mod tests {
     #[test]

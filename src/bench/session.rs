@@ -3,7 +3,6 @@
 //! frame of its view. Against a server on 127.0.0.1 in this process (or a given address).
 use crate::client::{connect, Target};
 use crate::proto::{self, session_event::Kind, session_request, CameraOverride, SessionRequest, SessionUpdate};
-use crate::server::{serve_on, ServerConfig, ServerState};
 use glam::{Quat, Vec3};
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
@@ -43,18 +42,7 @@ pub async fn measure(
     sweep_deg: f32,
     addr: Option<String>,
 ) -> anyhow::Result<SessionReport> {
-    let (addr, shutdown) = match addr {
-        Some(a) => (a, None),
-        None => {
-            let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
-            let local = listener.local_addr()?;
-            let (tx, rx) = tokio::sync::oneshot::channel::<()>();
-            let server = tokio::spawn(serve_on(listener, ServerConfig::default(), ServerState::new(), async {
-                let _ = rx.await;
-            }));
-            (format!("http://{local}"), Some((tx, server)))
-        }
-    };
+    let (addr, local) = crate::bench::bench_server(addr).await?;
     let mut client = connect(&Target::from(addr.as_str())).await?;
     let (tx, rx) = mpsc::channel::<SessionRequest>(updates + 1);
     tx.send(SessionRequest { kind: Some(session_request::Kind::Open(req)) }).await?;
@@ -110,9 +98,8 @@ pub async fn measure(
             .collect()
     };
     let (latencies, full_latencies) = (since_sent(&first_frame), since_sent(&first_full));
-    if let Some((tx, server)) = shutdown {
-        let _ = tx.send(());
-        server.await??;
+    if let Some(server) = local {
+        server.stop().await?;
     }
     Ok(SessionReport { latencies, full_latencies, updates, frames, dropped })
 }

@@ -351,15 +351,7 @@ impl WireSink {
     fn new(job: &crate::pipeline::job::RenderJob, outputs: OutputSelection, service: &RenderService) -> WireSink {
         // Known before rendering, so that `RenderStarted` can announce every layer.
         let components = component_names(job);
-        let started = RenderStarted {
-            width: job.width(),
-            height: job.height(),
-            method: job.method.to_proto() as i32,
-            seed: job.seed,
-            triangles: u32::try_from(job.scene.triangle_count()).unwrap_or(u32::MAX),
-            layers: wire::layer_names(&outputs, &components),
-            format: outputs.format,
-        };
+        let started = wire::render_started(job, &outputs, &components);
         WireSink {
             started,
             outputs,

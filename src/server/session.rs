@@ -53,15 +53,7 @@ impl Pass {
     fn new(prepared: PreparedJob, outputs: OutputSelection) -> Pass {
         let job = &prepared.job;
         let components = component_names(job);
-        let started = RenderStarted {
-            width: job.width(),
-            height: job.height(),
-            method: job.method.to_proto() as i32,
-            seed: job.seed,
-            triangles: u32::try_from(job.scene.triangle_count()).unwrap_or(u32::MAX),
-            layers: wire::layer_names(&outputs, &components),
-            format: outputs.format,
-        };
+        let started = wire::render_started(job, &outputs, &components);
         Pass { prepared, outputs, components, started }
     }
 }

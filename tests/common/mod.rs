@@ -191,3 +191,14 @@ pub fn color_bits(frame: &Frame) -> Vec<u32> {
 pub fn spp_bits(frame: &Frame) -> Vec<u32> {
     frame.spp.iter().map(|v| v.to_bits()).collect()
 }
+
+/// Reads a render stream to its end and returns its final status; panics if it ends with OK.
+pub async fn final_status(stream: &mut tonic::Streaming<RenderUpdate>) -> tonic::Status {
+    loop {
+        match stream.message().await {
+            Ok(Some(_)) => continue,
+            Ok(None) => panic!("the stream ended with OK"),
+            Err(s) => return s,
+        }
+    }
+}
