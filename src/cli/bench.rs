@@ -128,30 +128,16 @@ pub enum BenchKind {
     },
     /// Latency from a Render request to its first five frames over gRPC, per method.
     Latency {
-        #[arg(long, default_value = "cornell")]
-        scene: String,
-        #[arg(long, default_value_t = 320)]
-        width: u32,
-        #[arg(long, default_value_t = 240)]
-        height: u32,
+        #[command(flatten)]
+        target: ServiceTarget,
         #[arg(long, default_value_t = 10)]
         runs: usize,
-        /// Methods to time (repeatable); default: every method.
-        #[arg(long)]
-        method: Vec<String>,
-        /// Use this server instead of one started in-process.
-        #[arg(long)]
-        addr: Option<String>,
     },
     /// Camera-update latency of an editing session: an orbit of camera changes over gRPC, per
     /// method; prints `METHOD: median N ms, p95 M ms, dropped K of T` per method.
     Session {
-        #[arg(long, default_value = "cornell")]
-        scene: String,
-        #[arg(long, default_value_t = 320)]
-        width: u32,
-        #[arg(long, default_value_t = 240)]
-        height: u32,
+        #[command(flatten)]
+        target: ServiceTarget,
         /// Camera changes sent, and how many per second.
         #[arg(long, default_value_t = 60)]
         updates: usize,
@@ -160,13 +146,24 @@ pub enum BenchKind {
         /// Degrees the orbit sweeps around the scene camera's look-at point.
         #[arg(long, default_value_t = 60.0)]
         sweep: f32,
-        /// Methods to time (repeatable); default: every method.
-        #[arg(long)]
-        method: Vec<String>,
-        /// Use this server instead of one started in-process.
-        #[arg(long)]
-        addr: Option<String>,
     },
+}
+
+/// What the service benchmarks (`latency`, `session`) render, with which methods, where.
+#[derive(Args, Debug)]
+pub struct ServiceTarget {
+    #[arg(long, default_value = "cornell")]
+    scene: String,
+    #[arg(long, default_value_t = 320)]
+    width: u32,
+    #[arg(long, default_value_t = 240)]
+    height: u32,
+    /// Methods to time (repeatable); default: every method.
+    #[arg(long)]
+    method: Vec<String>,
+    /// Use this server instead of one started in-process.
+    #[arg(long)]
+    addr: Option<String>,
 }
 
 /// What `bench rays` compares on the same rays: wedge's default BVH (8-wide with AVX2, leaves
@@ -317,7 +314,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             println!("\nwithin a factor of 2: {within} of {total}");
             Ok(())
         }
-        BenchKind::Session { scene, width, height, updates, rate, sweep, method, addr } => {
+        BenchKind::Session { target: ServiceTarget { scene, width, height, method, addr }, updates, rate, sweep } => {
             let camera = crate::scene::builtin::get(&scene)
                 .and_then(|s| s.camera)
                 .ok_or_else(|| anyhow::anyhow!("--scene: no built-in scene {scene:?} with a camera"))?;
@@ -355,7 +352,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        BenchKind::Latency { scene, width, height, runs, method, addr } => {
+        BenchKind::Latency { target: ServiceTarget { scene, width, height, method, addr }, runs } => {
             use crate::pipeline::job::Method;
             let methods: Vec<Method> = methods_named(&method)?;
             const FRAMES: usize = 5;
