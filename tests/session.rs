@@ -10,8 +10,9 @@ use tokio_stream::wrappers::ReceiverStream;
 use tonic::Code;
 use wedge::pipeline::frame::Frame;
 use wedge::proto::{
-    render_request::SceneSource, render_update, session_event::Kind, session_request, CameraOverride, PutSceneRequest,
-    RenderRequest, RenderSettings, RenderUpdate, SessionEvent, SessionRequest, SessionUpdate, Vec3,
+    render_request::SceneSource, render_update, session_event::Kind, session_request, CameraOverride, LightEdit,
+    PutSceneRequest, RenderRequest, RenderSettings, RenderUpdate, SceneEdit, SessionEvent, SessionRequest,
+    SessionUpdate, Vec3,
 };
 use wedge::server::{FrameAssembler, ServerConfig};
 
@@ -104,6 +105,52 @@ async fn a_camera_change_renders_the_new_view_exactly_as_a_fresh_render() {
     assert_eq!(first_frames, Some("3"), "{text}");
     drop(s);
     assert!(wait_until(Duration::from_secs(30), || server.state.metrics.active_sessions() == 0).await);
+}
+
+/// Cornell's red wall made glossy, and its light moved 60 units along x at a third of its
+/// radiance: the edit, and the scene it describes.
+fn edited_cornell() -> (SceneEdit, wedge::proto::Scene) {
+    let mut scene = wedge::scene::builtin::get("cornell").expect("built-in cornell");
+    let json = r#"{"materials": [{"name": "red", "glossy": {"diffuse": {"constant": {"r": 0.4, "g": 0.05, "b": 0.05}},
+        "specular": {"constant": {"r": 0.5, "g": 0.5, "b": 0.5}}, "exponent": {"constant": 300}}}]}"#;
+    let red = wedge::scene::json::parse_scene(json, "edit").unwrap().materials.remove(0);
+    let mut light = scene.lights[0];
+    if let Some(wedge::proto::light::Kind::Rect(r)) = light.kind.as_mut() {
+        r.corner.as_mut().unwrap().x -= 60.0;
+        r.radiance = r.radiance.map(|c| wedge::proto::Rgb { r: c.r / 3.0, g: c.g / 3.0, b: c.b / 3.0 });
+    }
+    let i = scene.materials.iter().position(|m| m.name == "red").unwrap();
+    scene.materials[i] = red.clone();
+    scene.lights[0] = light;
+    let edit = SceneEdit { materials: vec![red], lights: vec![LightEdit { index: 0, light: Some(light) }] };
+    (edit, scene)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_material_and_light_edit_renders_exactly_as_a_fresh_render_of_the_edited_scene() {
+    let server = TestServer::start().await;
+    let mut s = Session::open(&server, open_req(2, 5)).await.expect("session opens");
+    let (first, _) = s.until_final(1).await;
+    let (edit, edited) = edited_cornell();
+    s.update(SessionUpdate { edit: Some(edit), ..Default::default() }).await;
+    let (frames, seen) = s.until_final(2).await;
+    let ack = seen.iter().position(|e| matches!(e.kind, Some(Kind::Ack(_)))).expect("an ack");
+    assert!(seen[ack..].iter().all(|e| e.generation >= 2), "a generation-1 event after the ack");
+    let last = &frames.last().unwrap().1;
+    assert_ne!(color_bits(last), color_bits(&first.last().unwrap().1), "the edit shows");
+
+    let mut fresh = open_req(2, 5);
+    fresh.scene_source = Some(SceneSource::Scene(edited));
+    let expected = collect(&mut server.client().await, fresh).await.expect("render");
+    assert_eq!(color_bits(last), color_bits(expected.frames.last().unwrap()));
+
+    // A bad edit is refused in band, naming its field, and the next one still applies.
+    let mut bad = edited_cornell().0;
+    bad.materials[0].name = "chrome".into();
+    s.update(SessionUpdate { edit: Some(bad), ..Default::default() }).await;
+    let e = s.next().await.unwrap().unwrap();
+    let Some(Kind::Error(err)) = e.kind else { panic!("expected an error, got {e:?}") };
+    assert_eq!((e.generation, err.field.as_str()), (2, "edit.materials[0].name"), "{err:?}");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

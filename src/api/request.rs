@@ -116,15 +116,10 @@ pub fn compile_scene(
     Ok(compiled)
 }
 
-/// What a compiled scene keeps of its source for later views and settings: the camera and
-/// the settings (not the geometry, which may be large).
+/// What a compiled scene keeps of its source for later views, settings and edits: all but the
+/// shapes (which may be large).
 pub fn header(scene: &proto::Scene) -> proto::Scene {
-    proto::Scene {
-        camera: scene.camera,
-        settings: scene.settings,
-        description: scene.description.clone(),
-        ..Default::default()
-    }
+    crate::scene::edit::header(scene)
 }
 
 fn scene_limits(limits: &Limits) -> SceneLimits {

@@ -68,6 +68,7 @@ impl Default for BvhLayout {
     }
 }
 
+#[derive(Clone)]
 enum Accel {
     Wide(WideBvh),
     Cwbvh(CwBvh),
@@ -136,7 +137,14 @@ impl GeometryBuilder {
 
     pub fn build(self, quality: BvhQuality, layout: BvhLayout) -> Geometry {
         if self.positions.is_empty() {
-            return Geometry { bvh: None, tris: Vec::new(), attrs: Vec::new(), normals: self.normals, uvs: self.uvs };
+            return Geometry {
+                bvh: None,
+                tris: Vec::new(),
+                attrs: Vec::new(),
+                source: Vec::new(),
+                normals: self.normals,
+                uvs: self.uvs,
+            };
         }
         let input: Vec<Triangle> =
             self.positions.iter().map(|p| Triangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() }).collect();
@@ -163,7 +171,7 @@ impl GeometryBuilder {
         // pre-splitting a triangle can occupy several slots).
         let tris = slots.iter().map(|&i| RtTriangle::from(&input[i as usize])).collect();
         let attrs = slots.iter().map(|&i| self.attrs[i as usize]).collect();
-        Geometry { bvh: Some(accel), tris, attrs, normals: self.normals, uvs: self.uvs }
+        Geometry { bvh: Some(accel), tris, attrs, source: slots, normals: self.normals, uvs: self.uvs }
     }
 }
 
@@ -186,10 +194,14 @@ pub struct Hit {
     pub b2: f32,
 }
 
+#[derive(Clone)]
 pub struct Geometry {
     bvh: Option<Accel>,
     pub tris: Vec<RtTriangle>,
     pub attrs: Vec<TriAttr>,
+    /// Per slot: the index of its triangle in the builder (pre-splitting can put one triangle
+    /// in several slots), so that a triangle can be moved later (`with_moved`).
+    pub source: Vec<u32>,
     pub normals: Vec<[Vec3; 3]>,
     pub uvs: Vec<[Vec2; 3]>,
 }
@@ -274,6 +286,25 @@ impl Geometry {
     pub fn geometric_normal(&self, slot: u32) -> Vec3 {
         // RtTriangle stores ng = (v0 - v1) x (v2 - v0) = -(v1 - v0) x (v2 - v0).
         Vec3::from(-self.tris[slot as usize].ng).normalize()
+    }
+
+    /// A copy with the builder's triangles `moved[i].0` at the vertices `moved[i].1`, the tree
+    /// refitted rather than built again (`WideBvh::move_triangles`). None for the CWBVH layout,
+    /// which only the ray benchmark builds and which has no refit.
+    pub fn with_moved(&self, moved: &[(u32, [Vec3; 3])]) -> Option<Geometry> {
+        let mut g = self.clone();
+        let slots: Vec<(u32, [Vec3; 3])> = (0..g.source.len() as u32)
+            .filter_map(|s| moved.iter().find(|(i, _)| *i == g.source[s as usize]).map(|(_, p)| (s, *p)))
+            .collect();
+        for &(s, p) in &slots {
+            g.tris[s as usize] = RtTriangle::new(p[0].into(), p[1].into(), p[2].into());
+        }
+        match &mut g.bvh {
+            None => {}
+            Some(Accel::Wide(bvh)) => bvh.move_triangles(&slots),
+            Some(Accel::Cwbvh(_)) => return None,
+        }
+        Some(g)
     }
 
     /// The three vertices of a slot.

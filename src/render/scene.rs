@@ -13,6 +13,7 @@ use super::geometry::{BvhLayout, BvhQuality, Geometry, GeometryBuilder, Hit, NON
 use super::light::{Light, RectLight};
 use super::material::Material;
 use glam::{Vec2, Vec3};
+use std::sync::Arc;
 
 /// Diagonal of the scene bounds in the internal frame.
 pub const INTERNAL_DIAGONAL: f32 = 10.0;
@@ -35,6 +36,8 @@ pub struct SceneBuilder {
     pub materials: Vec<Material>,
     pub lights: Vec<Light>,
     pub objects: u32,
+    /// Which of `geometry`'s triangles are rect lights' (their indices, in the lights' order).
+    pub light_triangles: Vec<u32>,
     pub bvh_quality: BvhQuality,
     pub bvh_layout: BvhLayout,
 }
@@ -47,6 +50,7 @@ impl SceneBuilder {
             materials: Vec::new(),
             lights: Vec::new(),
             objects: 0,
+            light_triangles: Vec::new(),
             bvh_quality: BvhQuality::default(),
             bvh_layout: BvhLayout::default(),
         }
@@ -63,8 +67,10 @@ impl SceneBuilder {
         self.objects - 1
     }
 
-    /// Adds an area light and the two triangles that make it visible to camera rays.
+    /// Adds an area light and the two triangles that make it visible to camera rays (noted, so
+    /// that an edit can move them: `Scene::with_lights`).
     pub fn add_rect_light(&mut self, light: RectLight) {
+        let first = self.geometry.len();
         let index = self.lights.len() as u32;
         let material = self.add_material(Material::Emitter { light: index });
         let object = self.new_object();
@@ -72,6 +78,7 @@ impl SceneBuilder {
         let (c, u, v) = (light.corner, light.edge_u, light.edge_v);
         self.geometry.push([c, c + u, c + u + v], None, None, material, object);
         self.geometry.push([c, c + u + v, c + v], None, None, material, object);
+        self.light_triangles.extend(first as u32..self.geometry.len() as u32);
         self.lights.push(Light::Rect(light));
     }
 
@@ -96,27 +103,36 @@ impl SceneBuilder {
         };
         let to_internal = move |p: Vec3| (p - center) * scale;
         self.geometry.transform(to_internal, |n| n);
-        for l in &mut self.lights {
-            match l {
-                Light::Rect(r) => *r = r.rescaled(to_internal(r.corner), scale),
-                Light::Point(p) => {
-                    p.position = to_internal(p.position);
-                    p.intensity *= scale * scale;
-                }
-            }
-        }
+        to_internal_lights(&mut self.lights, center, scale);
         let degenerate_triangles = self.geometry.degenerate;
         let extent = if diag.is_finite() && diag > 0.0 { (hi - lo) * scale } else { Vec3::ZERO };
+        let light_tris = self.light_triangles.iter().map(|&i| (i, self.geometry.positions[i as usize])).collect();
         Scene {
             default_camera: self.camera,
             origin: center,
-            geometry: self.geometry.build(self.bvh_quality, self.bvh_layout),
+            geometry: Arc::new(self.geometry.build(self.bvh_quality, self.bvh_layout)),
             materials: self.materials,
             lights: self.lights,
+            light_tris,
             world_scale: scale,
             extent,
             objects: self.objects,
             degenerate_triangles,
+        }
+    }
+}
+
+/// Moves lights described in scene units into the internal frame (internal = (p - origin) *
+/// scale).
+fn to_internal_lights(lights: &mut [Light], origin: Vec3, scale: f32) {
+    let to_internal = move |p: Vec3| (p - origin) * scale;
+    for l in lights {
+        match l {
+            Light::Rect(r) => *r = r.rescaled(to_internal(r.corner), scale),
+            Light::Point(p) => {
+                p.position = to_internal(p.position);
+                p.intensity *= scale * scale;
+            }
         }
     }
 }
@@ -128,9 +144,13 @@ pub struct Scene {
     pub default_camera: CameraDesc,
     /// The scene-unit point at the internal frame's origin (internal = (p - origin) * scale).
     pub origin: Vec3,
-    pub geometry: Geometry,
+    /// Shared by the scenes that material and light edits make of this one (`with_lights`).
+    pub geometry: Arc<Geometry>,
     pub materials: Vec<Material>,
     pub lights: Vec<Light>,
+    /// The rect lights' triangles: their index in the builder (`Geometry::source`) and their
+    /// vertices in the internal frame.
+    pub light_tris: Vec<(u32, [Vec3; 3])>,
     /// Internal units per world unit.
     pub world_scale: f32,
     /// Size of the bounds along each axis, internal units.
@@ -153,7 +173,56 @@ pub struct Surface {
     pub t: f32,
 }
 
+/// Why `Scene::with_lights` refused an edit.
+#[derive(Debug, PartialEq, Eq)]
+pub enum EditRefused {
+    /// The edit has other materials or lights than the scene (count or kind): a new geometry.
+    Shape,
+    /// Lights moved in a tree that cannot be refitted (the ray benchmark's CWBVH layout).
+    NoRefit,
+}
+
 impl Scene {
+    /// This scene with its materials and lights replaced by `b`'s (a builder holding the
+    /// materials and lights, in scene units, listed as at compile time), without building the
+    /// BVH again: the geometry is shared, or copied and refitted when rect lights moved. The
+    /// internal frame stays this scene's, so an edit that keeps lights within the scene's
+    /// bounds gives the scene a fresh compile of the edited description would.
+    pub fn with_lights(&self, mut b: SceneBuilder) -> Result<Scene, EditRefused> {
+        let same_kinds = b.lights.len() == self.lights.len()
+            && b.lights.iter().zip(&self.lights).all(|(a, o)| std::mem::discriminant(a) == std::mem::discriminant(o));
+        if !same_kinds || b.materials.len() != self.materials.len() || b.light_triangles.len() != self.light_tris.len()
+        {
+            return Err(EditRefused::Shape);
+        }
+        let (origin, scale) = (self.origin, self.world_scale);
+        b.geometry.transform(move |p| (p - origin) * scale, |n| n);
+        to_internal_lights(&mut b.lights, origin, scale);
+        // The edit's triangles in the order of this scene's, under this scene's indices.
+        let light_tris: Vec<(u32, [Vec3; 3])> = (b.light_triangles.iter().zip(&self.light_tris))
+            .map(|(&i, &(at, _))| (at, b.geometry.positions[i as usize]))
+            .collect();
+        let moved: Vec<(u32, [Vec3; 3])> =
+            light_tris.iter().zip(&self.light_tris).filter(|(new, old)| new.1 != old.1).map(|(new, _)| *new).collect();
+        let geometry = if moved.is_empty() {
+            Arc::clone(&self.geometry)
+        } else {
+            Arc::new(self.geometry.with_moved(&moved).ok_or(EditRefused::NoRefit)?)
+        };
+        Ok(Scene {
+            default_camera: self.default_camera.clone(),
+            origin,
+            geometry,
+            materials: b.materials,
+            lights: b.lights,
+            light_tris,
+            world_scale: scale,
+            extent: self.extent,
+            objects: self.objects,
+            degenerate_triangles: self.degenerate_triangles,
+        })
+    }
+
     /// The view of `desc` (scene units) in the internal frame the tracer works in.
     pub fn view(&self, desc: &CameraDesc) -> Camera {
         let to_internal = |p: Vec3| (p - self.origin) * self.world_scale;

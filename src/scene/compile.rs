@@ -33,7 +33,7 @@ pub fn compile_builder(
 ) -> FieldResult<SceneBuilder> {
     let camera = camera("scene.camera", &scene.camera, limits)?;
     let mut b = SceneBuilder::new(camera);
-    let materials = materials(&scene.materials, &mut b)?;
+    let materials = materials("scene.materials", &scene.materials, &mut b)?;
     let mut budget = limits.max_triangles;
     for (i, light) in scene.lights.iter().enumerate() {
         add_light(&format!("scene.lights[{i}]"), light, &mut b)?;
@@ -141,11 +141,17 @@ fn scalar_texture(path: &str, t: &Option<proto::ScalarTexture>, lo: f32, hi: f32
     }
 }
 
-fn materials<'a>(list: &'a [proto::Material], b: &mut SceneBuilder) -> FieldResult<HashMap<&'a str, u32>> {
+/// Validates and adds the materials of `list` (named `prefix[i]` in errors); returns their
+/// indices by name.
+pub(super) fn materials<'a>(
+    prefix: &str,
+    list: &'a [proto::Material],
+    b: &mut SceneBuilder,
+) -> FieldResult<HashMap<&'a str, u32>> {
     use proto::material::Kind;
     let mut by_name = HashMap::new();
     for (i, m) in list.iter().enumerate() {
-        let path = format!("scene.materials[{i}]");
+        let path = format!("{prefix}[{i}]");
         if m.name.is_empty() {
             return err(format!("{path}.name"), "is required");
         }
@@ -185,7 +191,7 @@ fn materials<'a>(list: &'a [proto::Material], b: &mut SceneBuilder) -> FieldResu
     Ok(by_name)
 }
 
-fn add_light(path: &str, l: &proto::Light, b: &mut SceneBuilder) -> FieldResult<()> {
+pub(super) fn add_light(path: &str, l: &proto::Light, b: &mut SceneBuilder) -> FieldResult<()> {
     use proto::light::Kind;
     match &l.kind {
         None => err(path, "needs a kind (rect or point)"),

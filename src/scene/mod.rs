@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 pub mod builtin;
 mod compile;
+pub mod edit;
 pub(crate) mod fields;
 pub mod json;
 pub mod locate;

@@ -1,5 +1,6 @@
 //! The `Session` call: one compiled scene, rendered again for every accepted change (view,
-//! settings, outputs, pause, resume) without compiling it again. Three tasks share a session:
+//! settings, outputs, pause, resume; material and light edits, which share or refit its BVH)
+//! without compiling it again. Three tasks share a session:
 //! - control reads the client's messages, validates each change against the compiled scene,
 //!   queues its acknowledgement (or an in-band error) and publishes the new job;
 //! - the render loop renders the newest job, cancelling the running render (within a row of
@@ -318,14 +319,27 @@ async fn control(
             }
         };
         let next = apply_update(&scene.base, &change);
-        let prepared =
-            match request::prepare_compiled(&next, &scene.header, Arc::clone(&scene.compiled), &limits, &scene.label) {
-                Ok(p) => p,
-                Err(e) => {
-                    let _ = ctrl.send(refuse(&e.field, e.message)).await;
-                    continue;
-                }
-            };
+        // Material and light edits make a new compiled scene on the same (or a refitted) BVH.
+        let edited = match &change.edit {
+            None => Ok((scene.header.clone(), Arc::clone(&scene.compiled))),
+            Some(edit) => {
+                crate::scene::edit::apply(&scene.header, &scene.compiled, edit).map(|(h, c)| (h, Arc::new(c)))
+            }
+        };
+        let prepared = edited.and_then(|(header, compiled)| {
+            let p = request::prepare_compiled(&next, &header, Arc::clone(&compiled), &limits, &scene.label)?;
+            Ok((header, compiled, p))
+        });
+        let prepared = match prepared {
+            Ok((header, compiled, p)) => {
+                (scene.header, scene.compiled) = (header, compiled);
+                p
+            }
+            Err(e) => {
+                let _ = ctrl.send(refuse(&e.field, e.message)).await;
+                continue;
+            }
+        };
         generation += 1;
         scene.base = next;
         paused = (paused || change.pause) && !change.resume;

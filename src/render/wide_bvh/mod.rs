@@ -10,6 +10,7 @@
 //! Compared with obvhs's own compressed 8-wide traversal (CWBVH: quantised boxes, decoded per
 //! node, designed for GPUs), this spends fewer instructions per node on a CPU.
 mod node;
+mod refit;
 mod simd;
 mod tri4;
 
@@ -63,12 +64,14 @@ pub struct WideHit {
     pub v: f32,
 }
 
+#[derive(Clone)]
 enum Nodes {
     Four(Vec<Node4>),
     #[cfg(target_arch = "x86_64")]
     Eight(Vec<Node8>),
 }
 
+#[derive(Clone)]
 pub struct WideBvh {
     nodes: Nodes,
     blocks: Vec<Tri4>,

@@ -42,6 +42,11 @@ pub trait WideNode {
     /// The CPU must support the node's instruction set (AVX for `Node8`).
     unsafe fn enter(&self, ray: &RayBox, tmin: f32, tmax: f32, t: &mut [f32; 8]) -> u32;
     fn child(&self, lane: usize) -> u32;
+    /// Child `lane`'s box (minimum, maximum); empty lanes give an empty box.
+    fn lane_box(&self, lane: usize) -> (Vec3, Vec3);
+    fn set_lane_box(&mut self, lane: usize, lo: Vec3, hi: Vec3);
+    /// Lanes per node.
+    const LANES: usize;
 }
 
 /// Four children, tested with SSE (or portable 4-lane code).
@@ -76,6 +81,23 @@ impl WideNode for Node4 {
     fn child(&self, lane: usize) -> u32 {
         self.child[lane]
     }
+
+    fn lane_box(&self, lane: usize) -> (Vec3, Vec3) {
+        let side = |s: usize| Vec3::from_array(self.b[s].map(|axis| axis.to_array()[lane]));
+        (side(0), side(1))
+    }
+
+    fn set_lane_box(&mut self, lane: usize, lo: Vec3, hi: Vec3) {
+        for (s, v) in [lo, hi].into_iter().enumerate() {
+            for axis in 0..3 {
+                let mut a = self.b[s][axis].to_array();
+                a[lane] = v[axis];
+                self.b[s][axis] = F4::new(a);
+            }
+        }
+    }
+
+    const LANES: usize = 4;
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -84,6 +106,7 @@ pub use eight::Node8;
 #[cfg(target_arch = "x86_64")]
 mod eight {
     use super::{RayBox, WideNode, FAR_SCALE};
+    use glam::Vec3;
     use std::arch::x86_64::*;
 
     /// Eight children, tested with AVX. Only built when the CPU has AVX2 and FMA (checked at run
@@ -129,5 +152,29 @@ mod eight {
         fn child(&self, lane: usize) -> u32 {
             self.child[lane]
         }
+
+        fn lane_box(&self, lane: usize) -> (Vec3, Vec3) {
+            let side = |s: usize| Vec3::from_array(self.b[s].map(|axis| lanes(axis)[lane]));
+            (side(0), side(1))
+        }
+
+        fn set_lane_box(&mut self, lane: usize, lo: Vec3, hi: Vec3) {
+            for (s, v) in [lo, hi].into_iter().enumerate() {
+                for axis in 0..3 {
+                    let mut a = lanes(self.b[s][axis]);
+                    a[lane] = v[axis];
+                    // SAFETY: as in `new`.
+                    self.b[s][axis] = unsafe { std::mem::transmute::<[f32; 8], __m256>(a) };
+                }
+            }
+        }
+
+        const LANES: usize = 8;
+    }
+
+    /// The eight values of a vector, read without AVX instructions.
+    fn lanes(v: __m256) -> [f32; 8] {
+        // SAFETY: same size, every bit pattern is a valid f32.
+        unsafe { std::mem::transmute::<__m256, [f32; 8]>(v) }
     }
 }

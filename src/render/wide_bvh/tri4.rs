@@ -73,6 +73,30 @@ impl Tri4 {
         Tri4 { v: v.map(|vertex| vertex.map(F4::new)), slots }
     }
 
+    /// Moves lane `lane` to the triangle `p` (its slot stays).
+    pub fn set_lane(&mut self, lane: usize, p: [Vec3; 3]) {
+        for (j, vertex) in p.iter().enumerate() {
+            for k in 0..3 {
+                let mut a = self.v[j][k].to_array();
+                a[lane] = vertex[k];
+                self.v[j][k] = F4::new(a);
+            }
+        }
+    }
+
+    /// The bounds of the used lanes (exact: the vertices the test reads).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for lane in (0..4).filter(|&i| self.slots[i] != EMPTY_SLOT) {
+            for vertex in &self.v {
+                let p = Vec3::new(vertex[0].to_array()[lane], vertex[1].to_array()[lane], vertex[2].to_array()[lane]);
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+        (lo, hi)
+    }
+
     /// The lanes hit at t in [tmin, tmax]. Empty lanes are degenerate (all vertices at the
     /// origin), so their determinant is zero and the det != 0 test rejects them, as it rejects
     /// rays that graze a triangle's plane.
