@@ -290,7 +290,11 @@ async fn stored_scenes_are_named_by_digest() {
     let server = TestServer::start().await;
     let scene = wedge::scene::builtin::get("cornell").unwrap();
     let mut client = server.client().await;
-    let put = client.put_scene(PutSceneRequest { scene: Some(scene.clone()) }).await.expect("stored").into_inner();
+    let put = client
+        .put_scene(PutSceneRequest { scene: Some(scene.clone()), ..Default::default() })
+        .await
+        .expect("stored")
+        .into_inner();
     assert_eq!(put.digest, wedge::server::scene_cache::digest(&scene));
     assert_eq!(
         put.triangles,
@@ -336,17 +340,19 @@ async fn the_scene_store_evicts_and_the_client_uploads_again() {
     let a = wedge::scene::builtin::get("cornell").unwrap();
     let mut b = a.clone();
     b.description = "another".into();
-    let da = client.put_scene(PutSceneRequest { scene: Some(a.clone()) }).await.unwrap().into_inner();
+    let da =
+        client.put_scene(PutSceneRequest { scene: Some(a.clone()), ..Default::default() }).await.unwrap().into_inner();
     assert_eq!(da.triangles, cornell_triangles);
-    client.put_scene(PutSceneRequest { scene: Some(b) }).await.unwrap();
+    client.put_scene(PutSceneRequest { scene: Some(b), ..Default::default() }).await.unwrap();
     let mut req = cornell(8, 6, 1, 1);
     req.scene_source = Some(SceneSource::SceneDigest(da.digest.clone()));
     assert_eq!(client.render(req.clone()).await.expect_err("evicted").code(), Code::FailedPrecondition);
-    client.put_scene(PutSceneRequest { scene: Some(a) }).await.unwrap();
+    client.put_scene(PutSceneRequest { scene: Some(a), ..Default::default() }).await.unwrap();
     collect(&mut client, req).await.expect("stored again");
     // A scene larger than the whole store is refused.
     let big = wedge::scene::builtin::get("interior").unwrap();
-    let err = client.put_scene(PutSceneRequest { scene: Some(big) }).await.expect_err("too large");
+    let err =
+        client.put_scene(PutSceneRequest { scene: Some(big), ..Default::default() }).await.expect_err("too large");
     assert_eq!(err.code(), Code::ResourceExhausted);
     assert!(err.message().contains("scene_cache_triangles"), "{}", err.message());
 }
@@ -410,4 +416,85 @@ async fn a_large_view_shows_a_quick_preview_first() {
     assert_eq!((last.width, last.height), (320, 240));
     let previews = seen.iter().filter(|e| matches!(e.kind, Some(Kind::FrameComplete(_))) && e.preview_divider == 4);
     assert_eq!(previews.count(), 1);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_watched_session_takes_its_changes_by_update_session() {
+    use wedge::proto::{UpdateSessionRequest, WatchSessionRequest};
+    let server = TestServer::start().await;
+    let mut client = server.client().await;
+    let mut events =
+        client.watch_session(WatchSessionRequest { open: Some(open_req(2, 7)) }).await.unwrap().into_inner();
+    let first = within(60, "the first event", events.message()).await.unwrap().unwrap();
+    assert!(matches!(first.kind, Some(Kind::Ack(ref a)) if a.update == 1), "{first:?}");
+    let id = first.session_id.clone();
+    assert_eq!(id.len(), 32, "a 128-bit hex id: {id:?}");
+
+    // A change, numbered as the reply says, acknowledged in the stream; then an in-band error.
+    let update = |u: SessionUpdate| UpdateSessionRequest { session_id: id.clone(), update: Some(u) };
+    let camera = SessionUpdate { camera: Some(moved_camera()), ..Default::default() };
+    let n = client.update_session(update(camera)).await.unwrap().into_inner().update;
+    assert_eq!(n, 2);
+    let bad = SessionUpdate { width: 1 << 20, ..Default::default() };
+    assert_eq!(client.update_session(update(bad)).await.unwrap().into_inner().update, 3);
+    let mut s = Session { tx: mpsc::channel(1).0, events, asm: FrameAssembler::new() };
+    let (frames, seen) = s.until_final(2).await;
+    let ack = seen.iter().position(|e| matches!(e.kind, Some(Kind::Ack(ref a)) if a.update == 2)).expect("ack");
+    assert_eq!(seen[ack].generation, 2);
+    assert!(seen[ack..].iter().all(|e| e.generation >= 2), "a generation-1 event after the ack");
+    assert!(seen.iter().all(|e| e.session_id.is_empty() || e.session_id == id));
+
+    // The new view is exactly a fresh render of it.
+    let mut fresh = open_req(2, 7);
+    fresh.camera = Some(moved_camera());
+    let expected = collect(&mut client, fresh).await.unwrap();
+    assert_eq!(color_bits(&frames.last().unwrap().1), color_bits(expected.frames.last().unwrap()));
+    let error_in = |e: &SessionEvent| match &e.kind {
+        Some(Kind::Error(err)) => Some(err.clone()),
+        _ => None,
+    };
+    let error = match seen.iter().find_map(error_in) {
+        Some(err) => err,
+        None => loop {
+            if let Some(err) = error_in(&s.next().await.unwrap().expect("session open")) {
+                break err;
+            }
+        },
+    };
+    assert_eq!((error.update, error.field.as_str()), (3, "width"), "{error:?}");
+
+    // Unknown ids, and the id of a session whose watch ended, are NOT_FOUND.
+    let unknown = UpdateSessionRequest { session_id: "0".repeat(32), update: Some(SessionUpdate::default()) };
+    let err = client.update_session(unknown).await.unwrap_err();
+    assert_eq!(err.code(), Code::NotFound);
+    assert!(err.message().starts_with("session_id:"), "{}", err.message());
+    let missing = UpdateSessionRequest { session_id: id.clone(), update: None };
+    assert_eq!(client.update_session(missing).await.unwrap_err().code(), Code::InvalidArgument);
+    drop(s);
+    assert!(wait_until(Duration::from_secs(30), || server.state.metrics.active_sessions() == 0).await);
+    let err = client.update_session(update(SessionUpdate::default())).await.unwrap_err();
+    assert_eq!(err.code(), Code::NotFound, "{err:?}");
+
+    // A watch without its open is refused.
+    let err = client.watch_session(WatchSessionRequest { open: None }).await.unwrap_err();
+    assert_eq!(err.code(), Code::InvalidArgument);
+    assert!(err.message().starts_with("open:"), "{}", err.message());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_scene_file_text_is_stored_as_its_scene() {
+    let server = TestServer::start().await;
+    let mut client = server.client().await;
+    let scene = wedge::scene::builtin::get("cornell").unwrap();
+    let text = wedge::scene::json::to_json(&scene);
+    let put = client.put_scene(PutSceneRequest { scene_json: text, ..Default::default() }).await.unwrap().into_inner();
+    assert_eq!(put.digest, wedge::server::scene_cache::digest(&scene));
+
+    let bad = "{\n  \"lights\": [\n    {\"rect\": 3}\n  ]\n}";
+    let err = client.put_scene(PutSceneRequest { scene_json: bad.into(), ..Default::default() }).await.unwrap_err();
+    assert_eq!(err.code(), Code::InvalidArgument);
+    assert!(err.message().starts_with("scene_json:3:"), "{}", err.message());
+    let both = PutSceneRequest { scene: Some(scene), scene_json: "{}".into() };
+    let err = client.put_scene(both).await.unwrap_err();
+    assert!(err.message().starts_with("scene_json: set either"), "{}", err.message());
 }

@@ -132,10 +132,11 @@ pub fn selected_layers(sel: &OutputSelection, components: &[&str]) -> Vec<LayerS
 /// What a stream of `job`'s frames announces first: size, method, seed, triangles, and the
 /// layers every chunk carries (for `outputs` and the job's `components`).
 pub fn render_started(
-    job: &crate::pipeline::job::RenderJob,
+    prepared: &crate::api::request::PreparedJob,
     outputs: &OutputSelection,
     components: &[&str],
 ) -> crate::proto::RenderStarted {
+    let job = &prepared.job;
     crate::proto::RenderStarted {
         width: job.width(),
         height: job.height(),
@@ -144,6 +145,7 @@ pub fn render_started(
         triangles: u32::try_from(job.scene.triangle_count()).unwrap_or(u32::MAX),
         layers: layer_names(outputs, components),
         format: outputs.format,
+        camera: prepared.header.camera,
     }
 }
 

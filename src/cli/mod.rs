@@ -90,6 +90,9 @@ pub struct ServeArgs {
     /// Do not serve gRPC server reflection.
     #[arg(long)]
     pub no_reflection: bool,
+    /// Also serve the browser viewer at http://ADDR/ and gRPC-web (HTTP/1.1) on the same port.
+    #[arg(long)]
+    pub web: bool,
     /// Seconds after which a connection is asked to close once its calls end (clients then
     /// reconnect and rebalance across replicas); 0: never.
     #[arg(long, default_value_t = 300.0)]

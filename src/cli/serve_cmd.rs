@@ -30,6 +30,7 @@ pub fn run(a: ServeArgs) -> anyhow::Result<()> {
         session_idle_timeout: seconds("--session-idle-timeout", a.session_idle_timeout)?,
         scene_cache_bytes: a.scene_cache_bytes,
         scene_cache_triangles: a.scene_cache_triangles,
+        web: a.web,
         max_connection_age: Some(seconds("--max-connection-age", a.max_connection_age)?).filter(|d| !d.is_zero()),
     };
     check_exposure(config.addr, config.tls.is_some(), !config.tokens.is_empty(), a.insecure)

@@ -18,8 +18,12 @@ use tonic::Status;
 
 /// The calls that render or compile scenes and so need a slot (a session holds its slot as
 /// long as it is open).
-const SLOT_PATHS: [&str; 3] =
-    ["/wedge.v1.Renderer/Render", "/wedge.v1.Renderer/Session", "/wedge.v1.Renderer/PutScene"];
+const SLOT_PATHS: [&str; 4] = [
+    "/wedge.v1.Renderer/Render",
+    "/wedge.v1.Renderer/Session",
+    "/wedge.v1.Renderer/WatchSession",
+    "/wedge.v1.Renderer/PutScene",
+];
 
 /// A render slot taken for a call, handed to its handler in the request's extensions.
 #[derive(Clone, Debug)]

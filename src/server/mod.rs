@@ -12,6 +12,8 @@ pub mod scene_cache;
 pub mod session;
 pub mod shutdown;
 pub mod state;
+pub mod web;
+pub mod web_sessions;
 
 pub use crate::api::wire::{FrameAssembler, DEFAULT_MAX_CHUNK_BYTES};
 pub use render_service::RenderService;
@@ -69,6 +71,8 @@ pub struct ServerConfig {
     /// Bounds of the store of `PutScene` scenes: encoded bytes and triangles, over all scenes.
     pub scene_cache_bytes: u64,
     pub scene_cache_triangles: u64,
+    /// Also serve the browser viewer's page and gRPC-web (HTTP/1.1) on the same port.
+    pub web: bool,
 }
 
 impl Default for ServerConfig {
@@ -90,6 +94,7 @@ impl Default for ServerConfig {
             session_idle_timeout: Duration::from_secs(300),
             scene_cache_bytes: 256 << 20,
             scene_cache_triangles: 2_000_000,
+            web: false,
         }
     }
 }
@@ -160,6 +165,7 @@ pub async fn serve_on(
         tls = config.tls.is_some(),
         tokens = config.tokens.len(),
         reflection = config.reflection,
+        web = config.web,
         "serving wedge.v1.Renderer"
     );
     let mut builder = Server::builder();
@@ -174,9 +180,14 @@ pub async fn serve_on(
             .context("TLS certificate and key")?;
     }
     let server = builder
+        // Browsers speak gRPC-web over HTTP/1.1 (the viewer's page too).
+        .accept_http1(config.web)
         // Notice clients that vanished without closing the connection, so their renders stop.
         .http2_keepalive_interval(Some(Duration::from_secs(30)))
         .http2_keepalive_timeout(Some(Duration::from_secs(20)))
+        // Outermost: gRPC-web answers are translated after every layer inside has had its say
+        // (the shutdown layer's trailers become gRPC-web trailers).
+        .layer(web::WebLayer::new(config.web))
         .layer(shutdown::EndStreamsLayer::new(Arc::clone(&state)))
         .layer(auth::BearerAuthLayer::new(config.tokens.clone(), Arc::clone(&state)))
         .layer(admission::AdmissionLayer::new(slots, config.max_request_bytes, Arc::clone(&state)))

@@ -5,8 +5,9 @@ use super::admission::{RenderSlot, RequestId};
 use super::log_text::Escaped;
 use super::metrics::RejectReason;
 use super::scene_cache::{self, SceneCache, StoredScene};
-use super::session;
+use super::session::{self, Inbound};
 use super::state::{RenderOutcome, ServerState};
+use super::web_sessions::WebSessions;
 use super::ServerConfig;
 use crate::api::request::{self, Limits, PreparedJob};
 use crate::api::wire;
@@ -16,7 +17,7 @@ use crate::pipeline::registry::component_names;
 use crate::proto::{
     render_request::SceneSource, render_update, renderer_server::Renderer, FrameComplete, ListScenesRequest,
     ListScenesResponse, OutputSelection, PixelFormat, PutSceneRequest, PutSceneResponse, RenderRequest, RenderStarted,
-    RenderUpdate, SessionRequest,
+    RenderUpdate, SessionRequest, UpdateSessionRequest, UpdateSessionResponse, WatchSessionRequest,
 };
 use crate::runner::{self, RunError, RunSummary, Slots};
 use std::sync::Arc;
@@ -43,6 +44,8 @@ pub struct RenderService {
     /// Scenes stored by `PutScene`, named by digest.
     cache: Arc<SceneCache>,
     scenes: Arc<ListScenesResponse>,
+    /// Sessions opened by `WatchSession`, which `UpdateSession` names.
+    web_sessions: Arc<WebSessions>,
 }
 
 impl RenderService {
@@ -58,6 +61,7 @@ impl RenderService {
             slots: Slots::new(config.max_concurrent_renders),
             state,
             scenes: Arc::new(super::catalog::builtin_catalog(&config.limits)),
+            web_sessions: Arc::default(),
         }
     }
 
@@ -113,6 +117,70 @@ impl RenderService {
     }
 }
 
+/// What a session call carries besides its message.
+struct CallInfo {
+    rid: u64,
+    peer: String,
+    /// Taken by `admission` before the request was read.
+    slot: Option<RenderSlot>,
+}
+
+impl CallInfo {
+    fn of<T>(request: &mut Request<T>) -> CallInfo {
+        CallInfo {
+            rid: request.extensions().get::<RequestId>().map_or(0, |id| id.0),
+            peer: request.remote_addr().map_or_else(|| "unknown".to_string(), |a| a.to_string()),
+            slot: request.extensions_mut().remove::<RenderSlot>(),
+        }
+    }
+}
+
+impl RenderService {
+    /// The render slot a session holds until it ends: the one `admission` took, or one taken
+    /// here; RESOURCE_EXHAUSTED when none is free.
+    fn session_slot(&self, slot: Option<RenderSlot>) -> Result<impl Send + 'static, Status> {
+        slot.map(|s| s.0).or_else(|| self.slots.try_acquire().map(Arc::new)).ok_or_else(|| {
+            self.state.metrics.reject(RejectReason::Busy);
+            super::admission::busy(&self.slots)
+        })
+    }
+
+    /// Prepares a session's first job and starts it; `held` (its slot) lives as long as it.
+    async fn open_session(
+        &self,
+        call: &CallInfo,
+        held: impl Send + 'static,
+        inbound: Inbound,
+        open: RenderRequest,
+        session_id: String,
+    ) -> Result<session::SessionStream, Status> {
+        let label = scene_label(&open);
+        let prepared = self.prepare(open.clone(), &label, &call.peer, call.rid).await?;
+        let cx = session::SessionContext {
+            limits: Arc::clone(&self.limits),
+            state: Arc::clone(&self.state),
+            max_chunk_bytes: self.max_chunk_bytes,
+            stall_timeout: self.stall_timeout,
+            idle_timeout: self.session_idle_timeout,
+            request_id: call.rid,
+            label,
+            session_id,
+        };
+        session::start(cx, held, inbound, open, prepared).await
+    }
+}
+
+/// The scene of a PutScene call: sent as a message or as a scene file's text.
+fn put_scene_source(req: PutSceneRequest) -> Result<crate::proto::Scene, Status> {
+    match (req.scene, req.scene_json.is_empty()) {
+        (Some(scene), true) => Ok(scene),
+        (None, false) => crate::scene::json::parse_scene(&req.scene_json, "scene_json")
+            .map_err(|e| Status::invalid_argument(e.to_string())),
+        (Some(_), false) => Err(Status::invalid_argument("scene_json: set either scene or scene_json, not both")),
+        (None, true) => Err(Status::invalid_argument("scene: is required (or scene_json, a scene file's text)")),
+    }
+}
+
 /// How logs name a request's scene.
 fn scene_label(req: &RenderRequest) -> String {
     match &req.scene_source {
@@ -150,8 +218,9 @@ impl Renderer for RenderService {
             self.state.metrics.reject(RejectReason::Busy);
             return Err(super::admission::busy(&self.slots));
         };
-        let job = self.prepare(req, &label, &peer, rid).await?.job;
-        let sink = WireSink::new(&job, outputs, self);
+        let prepared = self.prepare(req, &label, &peer, rid).await?;
+        let sink = WireSink::new(&prepared, outputs, self);
+        let job = prepared.job;
         let (tx, rx) = mpsc::channel::<UpdateResult>(CHANNEL_CAPACITY + 1);
         // The channel is new and empty: neither can wait.
         let gone = || Status::cancelled("client went away");
@@ -206,42 +275,52 @@ impl Renderer for RenderService {
         &self,
         mut request: Request<tonic::Streaming<SessionRequest>>,
     ) -> Result<Response<Self::SessionStream>, Status> {
-        let rid = request.extensions().get::<RequestId>().map_or(0, |id| id.0);
-        let peer = request.remote_addr().map_or_else(|| "unknown".to_string(), |a| a.to_string());
-        // Taken by `admission` before the request was read; held as long as the session.
-        let slot = request.extensions_mut().remove::<RenderSlot>();
-        let Some(permit) = slot.map(|s| s.0).or_else(|| self.slots.try_acquire().map(Arc::new)) else {
-            self.state.metrics.reject(RejectReason::Busy);
-            return Err(super::admission::busy(&self.slots));
-        };
+        let mut call = CallInfo::of(&mut request);
+        let permit = self.session_slot(call.slot.take())?;
         let mut inbound = request.into_inner();
         let open = session::first_message(&mut inbound, self.session_idle_timeout).await.inspect_err(|s| {
             if s.code() == tonic::Code::InvalidArgument {
                 self.state.metrics.reject(RejectReason::Invalid);
             }
         })?;
-        let label = scene_label(&open);
-        let prepared = self.prepare(open.clone(), &label, &peer, rid).await?;
-        let cx = session::SessionContext {
-            limits: Arc::clone(&self.limits),
-            state: Arc::clone(&self.state),
-            max_chunk_bytes: self.max_chunk_bytes,
-            stall_timeout: self.stall_timeout,
-            idle_timeout: self.session_idle_timeout,
-            request_id: rid,
-            label,
+        let stream = self.open_session(&call, permit, Box::pin(inbound), open, String::new()).await?;
+        Ok(Response::new(stream))
+    }
+
+    type WatchSessionStream = session::SessionStream;
+
+    async fn watch_session(
+        &self,
+        mut request: Request<WatchSessionRequest>,
+    ) -> Result<Response<Self::WatchSessionStream>, Status> {
+        let mut call = CallInfo::of(&mut request);
+        let permit = self.session_slot(call.slot.take())?;
+        let Some(open) = request.into_inner().open else {
+            self.state.metrics.reject(RejectReason::Invalid);
+            return Err(Status::invalid_argument("open: is required (the render request that opens the session)"));
         };
-        Ok(Response::new(session::start(cx, permit, inbound, open, prepared).await?))
+        let (id, inbound, registration) = self.web_sessions.open()?;
+        let stream = self.open_session(&call, (permit, registration), inbound, open, id).await?;
+        Ok(Response::new(stream))
+    }
+
+    async fn update_session(
+        &self,
+        request: Request<UpdateSessionRequest>,
+    ) -> Result<Response<UpdateSessionResponse>, Status> {
+        let UpdateSessionRequest { session_id, update } = request.into_inner();
+        let update = update.ok_or_else(|| Status::invalid_argument("update: is required"))?;
+        let number = self.web_sessions.update(&session_id, update)?;
+        Ok(Response::new(UpdateSessionResponse { update: number }))
     }
 
     async fn put_scene(&self, mut request: Request<PutSceneRequest>) -> Result<Response<PutSceneResponse>, Status> {
         let rid = request.extensions().get::<RequestId>().map_or(0, |id| id.0);
         // Compiling is a render's worth of work: it holds a slot (taken by `admission`).
         let _slot = request.extensions_mut().remove::<RenderSlot>();
-        let Some(scene) = request.into_inner().scene else {
+        let scene = put_scene_source(request.into_inner()).inspect_err(|_| {
             self.state.metrics.reject(RejectReason::Invalid);
-            return Err(Status::invalid_argument("scene: is required"));
-        };
+        })?;
         let digest = scene_cache::digest(&scene);
         let reply = |s: &StoredScene| {
             Response::new(PutSceneResponse { digest: s.digest.clone(), bytes: s.bytes, triangles: s.triangles })
@@ -348,10 +427,10 @@ struct WireSink {
 
 impl WireSink {
     /// A sink for `job` with the service's chunk size and stall timeout; call it on the runtime.
-    fn new(job: &crate::pipeline::job::RenderJob, outputs: OutputSelection, service: &RenderService) -> WireSink {
+    fn new(prepared: &PreparedJob, outputs: OutputSelection, service: &RenderService) -> WireSink {
         // Known before rendering, so that `RenderStarted` can announce every layer.
-        let components = component_names(job);
-        let started = wire::render_started(job, &outputs, &components);
+        let components = component_names(&prepared.job);
+        let started = wire::render_started(prepared, &outputs, &components);
         WireSink {
             started,
             outputs,

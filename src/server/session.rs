@@ -26,11 +26,15 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use tokio::sync::{mpsc, watch, Notify};
 use tokio_stream::wrappers::ReceiverStream;
+use tokio_stream::StreamExt;
 use tonic::{Status, Streaming};
 use tracing::info;
 
 pub type EventResult = Result<SessionEvent, Status>;
 pub type SessionStream = ReceiverStream<EventResult>;
+/// A session's changes: a `Session` call's request stream, or a `WatchSession` session's queue
+/// of `UpdateSession` changes (`web_sessions`).
+pub type Inbound = std::pin::Pin<Box<dyn tokio_stream::Stream<Item = Result<SessionRequest, Status>> + Send>>;
 
 /// Events buffered towards the client (plus one place reserved for the final status).
 const EVENT_CAPACITY: usize = 4;
@@ -54,7 +58,7 @@ impl Pass {
     fn new(prepared: PreparedJob, outputs: OutputSelection) -> Pass {
         let job = &prepared.job;
         let components = component_names(job);
-        let started = wire::render_started(job, &outputs, &components);
+        let started = wire::render_started(&prepared, &outputs, &components);
         Pass { prepared, outputs, components, started }
     }
 }
@@ -176,6 +180,8 @@ pub struct SessionContext {
     /// The call's id and scene label, for logs.
     pub request_id: u64,
     pub label: String,
+    /// The id `UpdateSession` names, sent with the first event; empty for a `Session` call.
+    pub session_id: String,
 }
 
 /// Starts an opened session on its prepared first job; `slot` (a render slot) is held until
@@ -183,7 +189,7 @@ pub struct SessionContext {
 pub async fn start(
     cx: SessionContext,
     slot: impl Send + 'static,
-    inbound: Streaming<SessionRequest>,
+    inbound: Inbound,
     open: RenderRequest,
     prepared: PreparedJob,
 ) -> Result<SessionStream, Status> {
@@ -213,6 +219,7 @@ pub async fn start(
         stall_timeout: cx.stall_timeout,
         state: Arc::clone(&state),
         clock: Mutex::new(FrameClock::new()),
+        session_id: cx.session_id,
     };
     let render = tokio::spawn(render_loop(job_rx, Arc::clone(&mailbox), Arc::clone(&state)));
     tokio::spawn(async move {
@@ -221,6 +228,9 @@ pub async fn start(
         let control = control(inbound, scene, limits, job_tx, ctrl_tx, idle);
         let ending = tokio::select! {
             e = control => e,
+            // The client dropped the event stream (a WatchSession client has no other side
+            // to close), even while nothing is being sent.
+            () = sender.out.closed() => Ending::ClientGone,
             e = sender.run(ctrl_rx, &mailbox) => e,
             () = state.drained() => Ending::Drained,
         };
@@ -290,7 +300,7 @@ fn apply_update(current: &RenderRequest, u: &SessionUpdate) -> RenderRequest {
 
 /// Reads the client's changes until it closes its side, goes away or idles.
 async fn control(
-    mut inbound: Streaming<SessionRequest>,
+    mut inbound: Inbound,
     mut scene: SessionScene,
     limits: Arc<request::Limits>,
     jobs: watch::Sender<Option<Arc<GenerationJob>>>,
@@ -299,11 +309,11 @@ async fn control(
 ) -> Ending {
     let (mut generation, mut update, mut paused) = (1u64, 1u64, false);
     loop {
-        let message = match tokio::time::timeout(idle, inbound.message()).await {
+        let message = match tokio::time::timeout(idle, inbound.next()).await {
             Err(_) => return Ending::Idle(idle),
-            Ok(Ok(None)) => return Ending::ClientDone,
-            Ok(Err(_)) => return Ending::ClientGone,
-            Ok(Ok(Some(m))) => m,
+            Ok(None) => return Ending::ClientDone,
+            Ok(Some(Err(_))) => return Ending::ClientGone,
+            Ok(Some(Ok(m))) => m,
         };
         update += 1;
         let refuse = |field: &str, message: String| Control::Error { update, generation, field: field.into(), message };
@@ -406,6 +416,7 @@ struct Sender {
     /// The server's metrics, and what they need to time a session's frames.
     state: Arc<ServerState>,
     clock: Mutex<FrameClock>,
+    session_id: String,
 }
 
 /// When the newest change was acknowledged, when its last frame went out, and the rays of the
@@ -425,7 +436,7 @@ impl FrameClock {
 }
 
 fn event(generation: u64, kind: session_event::Kind) -> SessionEvent {
-    SessionEvent { generation, kind: Some(kind), frames_dropped: 0, preview_divider: 0 }
+    SessionEvent { generation, kind: Some(kind), ..Default::default() }
 }
 
 impl Sender {
@@ -443,7 +454,11 @@ impl Sender {
             Control::Ack { update, generation } => {
                 *acked = generation;
                 self.clock.lock().unwrap_or_else(|p| p.into_inner()).accepted = std::time::Instant::now();
-                self.send(event(generation, session_event::Kind::Ack(SessionAck { update }))).await
+                let mut e = event(generation, session_event::Kind::Ack(SessionAck { update }));
+                if update == 1 {
+                    e.session_id.clone_from(&self.session_id);
+                }
+                self.send(e).await
             }
             Control::Error { update, generation, field, message } => {
                 let e = SessionError { update, field, message };
