@@ -129,14 +129,14 @@ pub fn selected_layers(sel: &OutputSelection, components: &[&str]) -> Vec<LayerS
     layers
 }
 
-/// What a stream of `job`'s frames announces first: size, method, seed, triangles, and the
-/// layers every chunk carries (for `outputs` and the job's `components`).
+/// What a stream of `job`'s frames announces first: size, method, seed, triangles, the layers
+/// every chunk carries (for `outputs` and the job's `components`) and the `camera` it shows.
 pub fn render_started(
-    prepared: &crate::api::request::PreparedJob,
+    job: &crate::pipeline::job::RenderJob,
+    camera: Option<crate::proto::Camera>,
     outputs: &OutputSelection,
     components: &[&str],
 ) -> crate::proto::RenderStarted {
-    let job = &prepared.job;
     crate::proto::RenderStarted {
         width: job.width(),
         height: job.height(),
@@ -145,7 +145,7 @@ pub fn render_started(
         triangles: u32::try_from(job.scene.triangle_count()).unwrap_or(u32::MAX),
         layers: layer_names(outputs, components),
         format: outputs.format,
-        camera: prepared.header.camera,
+        camera,
     }
 }
 

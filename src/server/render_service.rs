@@ -430,7 +430,7 @@ impl WireSink {
     fn new(prepared: &PreparedJob, outputs: OutputSelection, service: &RenderService) -> WireSink {
         // Known before rendering, so that `RenderStarted` can announce every layer.
         let components = component_names(&prepared.job);
-        let started = wire::render_started(prepared, &outputs, &components);
+        let started = wire::render_started(&prepared.job, prepared.header.camera, &outputs, &components);
         WireSink {
             started,
             outputs,

@@ -58,7 +58,7 @@ impl Pass {
     fn new(prepared: PreparedJob, outputs: OutputSelection) -> Pass {
         let job = &prepared.job;
         let components = component_names(job);
-        let started = wire::render_started(&prepared, &outputs, &components);
+        let started = wire::render_started(job, prepared.header.camera, &outputs, &components);
         Pass { prepared, outputs, components, started }
     }
 }

@@ -3,7 +3,7 @@
 use super::{glossy_model, IndirectStrategy, Part};
 use crate::methods::lobe_aware::filter::{self, BilateralOptions, Guide, Similarity};
 use crate::methods::lobe_aware::lobe;
-use crate::methods::lobe_aware::options::LobeAwareOptions;
+use crate::methods::lobe_aware::options::{LobeAwareOptions, LobeShape};
 use crate::methods::mode::FilterMode;
 use crate::pipeline::strategy::PassContext;
 use crate::render::gbuffer::GBuffer;
@@ -13,6 +13,7 @@ use rayon::prelude::*;
 /// `glossy` its specular lobe (App. B), smoothed with the render's kappa (Eq. 10). Valid at any
 /// hit; the filters also ask each pixel for samples that reached a reflecting surface (an area
 /// light's pixel at its edge has some). Shared by the lobe- and normal-aware modes and `auto`.
+/// With `LobeShape::Asg` glossy pixels also carry their lobe as an ASG (Eq. 13).
 pub(crate) fn guides(ctx: &PassContext, g: &GBuffer, glossy: bool, o: &LobeAwareOptions) -> Vec<Guide> {
     let kappa = o.kappa(ctx.job.bounces);
     let camera = ctx.view.position.as_dvec3();
@@ -20,13 +21,13 @@ pub(crate) fn guides(ctx: &PassContext, g: &GBuffer, glossy: bool, o: &LobeAware
         .par_iter()
         .map(|s| {
             let n = s.normal.as_dvec3();
-            let lobe = if glossy {
-                let psi = (camera - s.position.as_dvec3()).normalize_or_zero();
-                lobe::specular(glossy_model(ctx.scene, s.material), s.exponent as f64, n, psi, &o.lobe)
-            } else {
-                lobe::diffuse(n)
-            };
-            Guide { valid: s.is_valid(), depth: s.depth as f64, normal: n, lobe: lobe.smoothed(kappa), sigma_px: 0.0 }
+            let psi = (camera - s.position.as_dvec3()).normalize_or_zero();
+            let (model, exponent) = (glossy_model(ctx.scene, s.material), s.exponent as f64);
+            let lobe = if glossy { lobe::specular(model, exponent, n, psi, &o.lobe) } else { lobe::diffuse(n) };
+            let asg = (glossy && o.lobe.shape == LobeShape::Asg)
+                .then(|| lobe::specular_asg(model, exponent, n, psi, &o.lobe).smoothed(kappa));
+            let (valid, depth) = (s.is_valid(), s.depth as f64);
+            Guide { valid, depth, normal: n, lobe: lobe.smoothed(kappa), asg, sigma_px: 0.0 }
         })
         .collect()
 }

@@ -11,6 +11,7 @@
 //! then a vertical 1-D gather with the same weights, as the AAF filters do), the default for
 //! its cost: 2 (2r + 1) neighbours per pixel instead of (2r + 1)^2. Rows run in parallel; the
 //! result does not depend on the thread count.
+use super::asg::{self, Asg};
 use super::sg::Sg;
 use super::weights::{ln_depth_weight, ln_lobe_weight, ln_normal_weight};
 use glam::DVec3;
@@ -27,6 +28,8 @@ pub struct Guide {
     pub normal: DVec3,
     /// The smoothed lobe (Eq. 10) of the component being filtered (the lobe-aware guide).
     pub lobe: Sg,
+    /// The same lobe as a smoothed ASG, where the options ask for Eq. 13 (`LobeShape::Asg`).
+    pub asg: Option<Asg>,
     /// Standard deviation of the screen-space kernel f, in pixels, when this pixel is a
     /// centre; 0 keeps its value.
     pub sigma_px: f64,
@@ -73,7 +76,11 @@ pub struct Filtered {
 impl Similarity {
     fn ln_weight(&self, c: &Guide, j: &Guide) -> f64 {
         match *self {
-            Similarity::Lobe { beta } => ln_lobe_weight(&c.lobe, &j.lobe, beta),
+            Similarity::Lobe { beta } => match (&c.asg, &j.asg) {
+                (Some(a), Some(b)) => asg::ln_weight(a, b, beta),
+                _ => None,
+            }
+            .unwrap_or_else(|| ln_lobe_weight(&c.lobe, &j.lobe, beta)),
             Similarity::Normal { sigma_n2 } => ln_normal_weight(c.normal, j.normal, sigma_n2),
         }
     }
@@ -208,7 +215,7 @@ mod tests {
     }
 
     fn flat(w: usize, h: usize, sigma_px: f64) -> Vec<Guide> {
-        vec![Guide { valid: true, depth: 4.0, normal: DVec3::Z, lobe: diffuse(DVec3::Z), sigma_px }; w * h]
+        vec![Guide { valid: true, depth: 4.0, normal: DVec3::Z, lobe: diffuse(DVec3::Z), asg: None, sigma_px }; w * h]
     }
 
     #[test]

@@ -2,7 +2,9 @@
 //! Upsampling for Interactive Indirect Illumination"): cross-bilateral weights that compare two
 //! pixels' reflection lobes, as spherical Gaussians built from the G-buffer, instead of their
 //! normals. `sg` holds the SG algebra, `lobe` the per-pixel lobes (App. B, D), `weights` the
-//! weights (Eqs. 3, 4, 11, 12; App. A), `filter` the cross-bilateral gather (Eq. 1).
+//! weights (Eqs. 3, 4, 11, 12; App. A), `asg` the optional anisotropic lobes and their weight
+//! (Eq. 13), `filter` the cross-bilateral gather (Eq. 1).
+pub mod asg;
 pub mod filter;
 pub mod lobe;
 pub mod options;

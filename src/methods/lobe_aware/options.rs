@@ -1,18 +1,33 @@
 //! Options of the lobe-aware filter (Tokuyoshi 2015) and of its normal-aware baseline.
 use super::filter::Gather;
 
-/// How a pixel's lobe is built (App. B) where the warp degenerates.
+/// How a pixel's lobe is built (App. B), and where the warp degenerates.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LobeOptions {
     /// Lower clamp of `n.psi` in the warp `lambda' / (4 n.psi)` (BakingLab's 0.1).
     pub min_cos_view: f64,
     /// Cap of any lobe's sharpness.
     pub max_sharpness: f64,
+    /// The glossy lobes' shape: one SG (Eq. 12, the paper's main form) or an ASG (Eq. 13).
+    pub shape: LobeShape,
+}
+
+/// The glossy lobes' shape (Sec. 4.1 and 4.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum LobeShape {
+    /// An SG with App. B's warp, compared by Eq. 12.
+    #[default]
+    Sg,
+    /// An ASG (the warp's two stretches kept apart), compared by Eq. 13 where both lobes are
+    /// high-frequency and by Eq. 12 elsewhere (`asg::ln_weight`). The paper's option for
+    /// non-low-frequency lobes: dearer per weight. Only the f64 gather (`filter`) reads it;
+    /// `auto`'s packed gather keeps Eq. 12.
+    Asg,
 }
 
 impl Default for LobeOptions {
     fn default() -> Self {
-        LobeOptions { min_cos_view: 0.1, max_sharpness: 1e6 }
+        LobeOptions { min_cos_view: 0.1, max_sharpness: 1e6, shape: LobeShape::Sg }
     }
 }
 

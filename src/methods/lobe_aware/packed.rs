@@ -303,6 +303,7 @@ mod tests {
                     depth: if x < 25 { 3.0 + 0.01 * y as f64 } else { 5.0 },
                     normal: n,
                     lobe,
+                    asg: None,
                     sigma_px: if (rng.f() as f64) < 0.1 { 0.0 } else { 5.0 * rng.f() as f64 },
                 });
                 values.push([rng.f() as f64, 2.0 * rng.f() as f64, 0.5]);
@@ -349,6 +350,7 @@ mod tests {
                 depth: 1.0,
                 normal: DVec3::Y,
                 lobe: crate::methods::lobe_aware::sg::Sg::new(axis(rng), 10f64.powf(6.0 * rng.f() as f64 - 1.0)),
+                asg: None,
                 sigma_px: 1.0,
             };
             let (a, b) = (g(&mut rng), g(&mut rng));
