@@ -1,5 +1,5 @@
 //! Error against time and samples: renders a scene with each method, measures every frame's
-//! RMSE against a high-spp plain Monte Carlo reference, and derives equal-error speedups over
+//! RMSE, relative MSE and FLIP against a high-spp plain Monte Carlo reference, and derives equal-error speedups over
 //! uniform unfiltered Monte Carlo (the papers' Fig. 6c / Fig. 10a measurements).
 use crate::pipeline::frame::Frame;
 use crate::pipeline::job::{CancelToken, Halt, Method, RenderJob};
@@ -23,6 +23,8 @@ pub struct Point {
     pub rmse: f64,
     /// Mean over pixels and channels of (x - ref)^2 / (ref^2 + 0.01).
     pub rel_mse: f64,
+    /// Mean LDR-FLIP error (`flip`), in [0, 1].
+    pub flip: f64,
 }
 
 pub fn job(
@@ -82,11 +84,15 @@ pub fn rmse(a: &Frame, b: &Frame) -> f64 {
     (se / (3 * n) as f64).sqrt()
 }
 
-/// Every frame of `job` as a point on its error curve.
-pub fn sweep(job: &RenderJob, reference: &Frame) -> Vec<Point> {
+/// Every frame of `job` as a point on its error curve, and the last frame. FLIP is computed
+/// after the render (it is slower than the other metrics, and must not count in its seconds),
+/// on the colour kept of each frame.
+pub fn sweep(job: &RenderJob, reference: &Frame) -> (Vec<Point>, Option<Frame>) {
     let mut points = Vec::new();
+    let mut colours = Vec::new();
     let cpu0 = super::process_cpu_seconds();
     let _ = render(job, &CancelToken::new(), &mut |f| {
+        colours.push(Frame { width: f.width, height: f.height, color: f.color.clone(), ..Default::default() });
         points.push(Point {
             method: job.method,
             pass: f.stats.pass,
@@ -97,10 +103,14 @@ pub fn sweep(job: &RenderJob, reference: &Frame) -> Vec<Point> {
             rays: f.stats.rays_traced,
             rmse: rmse(f, reference),
             rel_mse: rel_mse(f, reference),
+            flip: 0.0,
         });
         true
     });
-    points
+    for (p, c) in points.iter_mut().zip(&colours) {
+        p.flip = super::flip::mean_flip(c, reference);
+    }
+    (points, colours.pop())
 }
 
 /// Where the baseline curve reaches `error`, by linear interpolation of log(x) against
@@ -155,6 +165,7 @@ mod tests {
             rays: 0,
             rmse,
             rel_mse: 0.0,
+            flip: 0.0,
         }
     }
 

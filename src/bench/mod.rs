@@ -2,6 +2,7 @@
 //! second of the path tracer (`throughput`) and latency to the first frame over gRPC
 //! (`latency`). Results are printed as Markdown for BENCHMARKS.md.
 pub mod convergence;
+pub mod flip;
 pub mod latency;
 pub mod noise;
 pub mod plot;

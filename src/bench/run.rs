@@ -1,6 +1,7 @@
 //! `wedge bench`: for each scene, a reference, then every method's progressive sweep over a
-//! few seeds; medians per pass, equal-error speedups over uniform, consistency; written as
-//! JSON, CSV, Markdown and log-log plots (SVG and PNG).
+//! few seeds; medians per pass (RMSE, relative MSE, FLIP), equal-error speedups over uniform,
+//! consistency; written as JSON, CSV, Markdown and log-log plots (SVG and PNG), and on request
+//! each method's FLIP error map of its last frame.
 use super::convergence::{consistent, speedup, sweep, Point};
 use super::plot::{self, Series};
 use super::reference::{cached_reference, load_reference, ReferenceKey};
@@ -38,6 +39,10 @@ pub struct BenchConfig {
     pub shadow_mu0: Option<f64>,
     /// The soft-shadow analysis takes a Gaussian light's profile sigma (`LightSigma::Profile`).
     pub shadow_profile_sigma: bool,
+    /// Also write each method's FLIP error map of its last frame (first seed) as a PNG.
+    pub flip_maps: bool,
+    /// Glossy lobes as ASGs (Tokuyoshi's Eq. 13, `LobeShape::Asg`).
+    pub asg_lobes: bool,
     pub out: PathBuf,
     pub name: String,
     /// The command line, recorded in the report.
@@ -56,6 +61,9 @@ pub struct SceneResult {
     pub reference_note: String,
     pub runs: Vec<(u32, Point)>,
     pub curves: Vec<Curve>,
+    /// Each method's last frame of its first seed, and the reference (for the FLIP maps).
+    pub last_frames: Vec<(Method, crate::pipeline::frame::Frame)>,
+    pub reference: crate::pipeline::frame::Frame,
 }
 
 fn median_curve(method: Method, runs: &[Vec<Point>]) -> Curve {
@@ -76,6 +84,7 @@ fn median_curve(method: Method, runs: &[Vec<Point>]) -> Curve {
                 rays: m(&|p| p.rays as f64) as u64,
                 rmse: m(&|p| p.rmse),
                 rel_mse: m(&|p| p.rel_mse),
+                flip: m(&|p| p.flip),
             }
         })
         .collect();
@@ -109,6 +118,7 @@ pub fn bench_scene(name: &str, mut scene: proto::Scene, cfg: &BenchConfig) -> an
     };
     let mut runs = Vec::new();
     let mut curves = Vec::new();
+    let mut last_frames = Vec::new();
     for &method in &cfg.methods {
         let passes = if method == Method::Uniform { cfg.uniform_passes } else { cfg.passes };
         let mut per_seed = Vec::new();
@@ -124,13 +134,19 @@ pub fn bench_scene(name: &str, mut scene: proto::Scene, cfg: &BenchConfig) -> an
             if cfg.shadow_profile_sigma {
                 j.aaf.light_sigma = crate::methods::aaf_shadows::LightSigma::Profile;
             }
-            let pts = sweep(&j, &reference);
+            if cfg.asg_lobes {
+                j.lobe.lobe.shape = crate::methods::lobe_aware::options::LobeShape::Asg;
+            }
+            let (pts, last) = sweep(&j, &reference);
+            if let Some(last) = last.filter(|_| r == 0) {
+                last_frames.push((method, last));
+            }
             runs.extend(pts.iter().cloned().map(|p| (r, p)));
             per_seed.push(pts);
         }
         curves.push(median_curve(method, &per_seed));
     }
-    Ok(SceneResult { name: name.to_string(), bounces, reference_note, runs, curves })
+    Ok(SceneResult { name: name.to_string(), bounces, reference_note, runs, curves, last_frames, reference })
 }
 
 /// The non-default options of a run, for the report's headings.
@@ -147,6 +163,9 @@ fn options_note(cfg: &BenchConfig) -> String {
     }
     if cfg.shadow_profile_sigma {
         s += ", shadows: the profile's sigma";
+    }
+    if cfg.asg_lobes {
+        s += ", ASG lobes (Eq. 13)";
     }
     s
 }
@@ -171,8 +190,8 @@ pub fn markdown(results: &[SceneResult], cfg: &BenchConfig) -> String {
             r.reference_note,
             cfg.repeats
         );
-        let _ = writeln!(s, "| method | pass | mean spp | seconds | CPU s | method share | RMSE | rel. MSE | speedup over uniform at equal error (samples, time) |");
-        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(s, "| method | pass | mean spp | seconds | CPU s | method share | RMSE | rel. MSE | FLIP | speedup over uniform at equal error (samples, time) |");
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
         let base = r.curves.iter().find(|c| c.method == Method::Uniform).map(|c| c.points.as_slice()).unwrap_or(&[]);
         for c in &r.curves {
             for p in &c.points {
@@ -180,7 +199,7 @@ pub fn markdown(results: &[SceneResult], cfg: &BenchConfig) -> String {
                 let x = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.1}x"));
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {} | {:.3} | {} | {:.1}% | {:.5} | {:.2e} | {}, {} |",
+                    "| {} | {} | {} | {:.3} | {} | {:.1}% | {:.5} | {:.2e} | {:.4} | {}, {} |",
                     c.method.name(),
                     p.pass,
                     f_spp(p.mean_spp),
@@ -189,6 +208,7 @@ pub fn markdown(results: &[SceneResult], cfg: &BenchConfig) -> String {
                     100.0 * p.method_seconds / p.seconds.max(1e-9),
                     p.rmse,
                     p.rel_mse,
+                    p.flip,
                     x(ss),
                     x(ts)
                 );
@@ -217,14 +237,14 @@ pub fn write_outputs(results: &[SceneResult], cfg: &BenchConfig) -> anyhow::Resu
     let point = |p: &Point| {
         json!({"method": p.method.name(), "pass": p.pass, "mean_spp": p.mean_spp, "seconds": p.seconds,
                "cpu_seconds": p.cpu_seconds, "method_seconds": p.method_seconds, "rays": p.rays,
-               "rmse": p.rmse, "rel_mse": p.rel_mse})
+               "rmse": p.rmse, "rel_mse": p.rel_mse, "flip": p.flip})
     };
     let scenes: Vec<_> = results
         .iter()
         .map(|r| {
             let base = r.curves.iter().find(|c| c.method == Method::Uniform).map(|c| c.points.as_slice()).unwrap_or(&[]);
             json!({
-                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces, "pixel_centers": cfg.pixel_centers, "indirect_kernel_scale": cfg.indirect_kernel_scale, "shadow_mu0": cfg.shadow_mu0, "shadow_profile_sigma": cfg.shadow_profile_sigma,
+                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces, "pixel_centers": cfg.pixel_centers, "indirect_kernel_scale": cfg.indirect_kernel_scale, "shadow_mu0": cfg.shadow_mu0, "shadow_profile_sigma": cfg.shadow_profile_sigma, "asg_lobes": cfg.asg_lobes,
                 "reference": r.reference_note,
                 "runs": r.runs.iter().map(|(seed, p)| { let mut v = point(p); v["repeat"] = json!(seed); v }).collect::<Vec<_>>(),
                 "medians": r.curves.iter().flat_map(|c| c.points.iter().map(|p| {
@@ -242,12 +262,12 @@ pub fn write_outputs(results: &[SceneResult], cfg: &BenchConfig) -> anyhow::Resu
     std::fs::write(path("json"), serde_json::to_string_pretty(&doc)?)?;
     written.push(path("json"));
     let mut csv =
-        String::from("scene,method,repeat,pass,mean_spp,seconds,cpu_seconds,method_seconds,rays,rmse,rel_mse\n");
+        String::from("scene,method,repeat,pass,mean_spp,seconds,cpu_seconds,method_seconds,rays,rmse,rel_mse,flip\n");
     for r in results {
         for (rep, p) in &r.runs {
             let _ = writeln!(
                 csv,
-                "{},{},{rep},{},{},{},{},{},{},{},{}",
+                "{},{},{rep},{},{},{},{},{},{},{},{},{}",
                 r.name,
                 p.method.name(),
                 p.pass,
@@ -257,7 +277,8 @@ pub fn write_outputs(results: &[SceneResult], cfg: &BenchConfig) -> anyhow::Resu
                 p.method_seconds,
                 p.rays,
                 p.rmse,
-                p.rel_mse
+                p.rel_mse,
+                p.flip
             );
         }
     }
@@ -265,23 +286,36 @@ pub fn write_outputs(results: &[SceneResult], cfg: &BenchConfig) -> anyhow::Resu
     written.push(path("csv"));
     std::fs::write(path("md"), markdown(results, cfg))?;
     written.push(path("md"));
+    // (label, file name part, value) of each plotted quantity: the axes, then the errors.
+    type Quantity = (&'static str, &'static str, fn(&Point) -> f64);
+    let axes: [Quantity; 2] = [("spp", "spp", |p| p.mean_spp), ("seconds", "seconds", |p| p.seconds)];
+    let metrics: [Quantity; 2] = [("RMSE", "rmse", |p| p.rmse), ("FLIP", "flip", |p| p.flip)];
     for r in results {
-        for (axis, x) in [("spp", (|p: &Point| p.mean_spp) as fn(&Point) -> f64), ("seconds", |p: &Point| p.seconds)] {
-            let series: Vec<Series> = r
-                .curves
-                .iter()
-                .map(|c| Series {
-                    label: c.method.name().to_string(),
-                    points: c.points.iter().map(|p| (x(p), p.rmse)).collect(),
-                })
-                .collect();
-            let title = format!("{}: RMSE vs {axis}", r.name);
-            let stem = cfg.out.join(format!("{}-{}-rmse-vs-{axis}", cfg.name, r.name));
-            let svg = stem.with_extension("svg");
-            std::fs::write(&svg, plot::svg(&title, axis, "RMSE", &series))?;
-            let png = stem.with_extension("png");
-            plot::png(&title, axis, "RMSE", &series).save(&png)?;
-            written.extend([svg, png]);
+        for (label, file, y) in metrics {
+            for (axis, _, x) in axes {
+                let series: Vec<Series> = r
+                    .curves
+                    .iter()
+                    .map(|c| Series {
+                        label: c.method.name().to_string(),
+                        points: c.points.iter().map(|p| (x(p), y(p))).collect(),
+                    })
+                    .collect();
+                let title = format!("{}: {label} vs {axis}", r.name);
+                let stem = cfg.out.join(format!("{}-{}-{file}-vs-{axis}", cfg.name, r.name));
+                let svg = stem.with_extension("svg");
+                std::fs::write(&svg, plot::svg(&title, axis, label, &series))?;
+                let png = stem.with_extension("png");
+                plot::png(&title, axis, label, &series).save(&png)?;
+                written.extend([svg, png]);
+            }
+        }
+        if cfg.flip_maps {
+            for (method, frame) in &r.last_frames {
+                let path = cfg.out.join(format!("{}-{}-{}-flip.png", cfg.name, r.name, method.name()));
+                super::flip::write_error_png(frame, &r.reference, &path)?;
+                written.push(path);
+            }
         }
     }
     Ok(written)
@@ -327,6 +361,8 @@ mod tests {
             indirect_kernel_scale: None,
             shadow_mu0: None,
             shadow_profile_sigma: false,
+            flip_maps: true,
+            asg_lobes: false,
             out: out.clone(),
             name: "t".into(),
             command: "test".into(),
@@ -345,8 +381,14 @@ mod tests {
         assert_eq!(u.iter().map(|p| p.mean_spp).collect::<Vec<_>>(), [1.0, 2.0, 4.0, 8.0]);
         let rate = u[3].rmse / u[0].rmse;
         assert!((0.25..0.5).contains(&rate), "error ratio from 1 to 8 spp: {rate}");
+        // FLIP falls with the samples too, and is in (0, 1).
+        assert!(u.iter().all(|p| p.flip > 0.0 && p.flip < 1.0), "{u:?}");
+        assert!(u[3].flip < u[0].flip, "FLIP from 1 to 8 spp: {} -> {}", u[0].flip, u[3].flip);
         let files = write_outputs(std::slice::from_ref(&r), &cfg).unwrap();
-        assert_eq!(files.len(), 3 + 4);
+        // JSON, CSV, Markdown; RMSE and FLIP against spp and seconds as SVG and PNG; a FLIP
+        // map per method.
+        assert_eq!(files.len(), 3 + 8 + 2);
+        assert!(files.iter().any(|f| f.ends_with("t-curved-aaf-flip.png")), "{files:?}");
         let doc: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("t.json")).unwrap()).unwrap();
         assert_eq!(doc["scenes"][0]["medians"].as_array().unwrap().len(), 6);

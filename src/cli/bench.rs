@@ -65,6 +65,14 @@ pub struct ConvergenceArgs {
     /// did, rather than the standard deviation of what its rectangle emits.
     #[arg(long)]
     pub shadow_profile_sigma: bool,
+    /// Glossy lobes as ASGs compared by Tokuyoshi's Eq. 13 (`lobe-aware`, `normal-aware`),
+    /// rather than SGs by Eq. 12.
+    #[arg(long)]
+    pub asg_lobes: bool,
+    /// Also write each method's FLIP error map of its last frame (first seed),
+    /// NAME-SCENE-METHOD-flip.png, in FLIP's magma colours.
+    #[arg(long)]
+    pub flip_maps: bool,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Output directory.
@@ -441,6 +449,8 @@ fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
         indirect_kernel_scale: a.indirect_kernel_scale,
         shadow_mu0: a.shadow_mu0,
         shadow_profile_sigma: a.shadow_profile_sigma,
+        flip_maps: a.flip_maps,
+        asg_lobes: a.asg_lobes,
         out: a.out.clone(),
         name: a.name.clone().unwrap_or_else(|| if q { "quick".into() } else { "full".into() }),
         command: std::env::args().collect::<Vec<_>>().join(" "),

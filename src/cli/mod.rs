@@ -93,6 +93,10 @@ pub struct ServeArgs {
     /// Also serve the browser viewer at http://ADDR/ and gRPC-web (HTTP/1.1) on the same port.
     #[arg(long)]
     pub web: bool,
+    /// Changes a WatchSession session may have queued by UpdateSession and not yet read; more
+    /// get RESOURCE_EXHAUSTED.
+    #[arg(long, default_value_t = crate::server::web_sessions::DEFAULT_QUEUED_UPDATES)]
+    pub web_session_queue: usize,
     /// Seconds after which a connection is asked to close once its calls end (clients then
     /// reconnect and rebalance across replicas); 0: never.
     #[arg(long, default_value_t = 300.0)]

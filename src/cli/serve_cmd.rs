@@ -31,6 +31,7 @@ pub fn run(a: ServeArgs) -> anyhow::Result<()> {
         scene_cache_bytes: a.scene_cache_bytes,
         scene_cache_triangles: a.scene_cache_triangles,
         web: a.web,
+        web_session_queue: a.web_session_queue,
         max_connection_age: Some(seconds("--max-connection-age", a.max_connection_age)?).filter(|d| !d.is_zero()),
     };
     check_exposure(config.addr, config.tls.is_some(), !config.tokens.is_empty(), a.insecure)

@@ -73,6 +73,8 @@ pub struct ServerConfig {
     pub scene_cache_triangles: u64,
     /// Also serve the browser viewer's page and gRPC-web (HTTP/1.1) on the same port.
     pub web: bool,
+    /// Changes a `WatchSession` session may have queued by `UpdateSession` and not yet read.
+    pub web_session_queue: usize,
 }
 
 impl Default for ServerConfig {
@@ -95,6 +97,7 @@ impl Default for ServerConfig {
             scene_cache_bytes: 256 << 20,
             scene_cache_triangles: 2_000_000,
             web: false,
+            web_session_queue: web_sessions::DEFAULT_QUEUED_UPDATES,
         }
     }
 }

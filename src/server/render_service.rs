@@ -61,7 +61,7 @@ impl RenderService {
             slots: Slots::new(config.max_concurrent_renders),
             state,
             scenes: Arc::new(super::catalog::builtin_catalog(&config.limits)),
-            web_sessions: Arc::default(),
+            web_sessions: Arc::new(WebSessions::new(config.web_session_queue)),
         }
     }
 

@@ -11,15 +11,22 @@ use tokio_stream::wrappers::ReceiverStream;
 use tokio_stream::StreamExt;
 use tonic::Status;
 
-/// Changes a session may have queued and not yet read; more get RESOURCE_EXHAUSTED (the
-/// client sends faster than the session validates, which only a broken client does: the
-/// viewer keeps one update in flight).
-pub const QUEUED_UPDATES: usize = 16;
+/// Changes a session may have queued and not yet read, by default (`--web-session-queue`);
+/// more get RESOURCE_EXHAUSTED: the client sends faster than the session validates, which
+/// only a broken client does (the viewer keeps one update in flight).
+pub const DEFAULT_QUEUED_UPDATES: usize = 16;
 
 /// The open sessions, by id.
-#[derive(Default)]
 pub struct WebSessions {
     open: Mutex<HashMap<String, Queue>>,
+    /// Changes each session may have queued (at least 1).
+    capacity: usize,
+}
+
+impl Default for WebSessions {
+    fn default() -> Self {
+        WebSessions::new(DEFAULT_QUEUED_UPDATES)
+    }
 }
 
 struct Queue {
@@ -42,6 +49,10 @@ impl Drop for Registration {
 }
 
 impl WebSessions {
+    pub fn new(capacity: usize) -> WebSessions {
+        WebSessions { open: Mutex::default(), capacity: capacity.max(1) }
+    }
+
     fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<String, Queue>> {
         self.open.lock().unwrap_or_else(|p| p.into_inner())
     }
@@ -50,7 +61,7 @@ impl WebSessions {
     /// must live as long as the session.
     pub fn open(self: &Arc<Self>) -> Result<(String, Inbound, Registration), Status> {
         let id = new_id()?;
-        let (tx, rx) = mpsc::channel(QUEUED_UPDATES);
+        let (tx, rx) = mpsc::channel(self.capacity);
         self.lock().insert(id.clone(), Queue { tx, next_update: 2 });
         let inbound: Inbound = Box::pin(ReceiverStream::new(rx).map(Ok));
         Ok((id.clone(), inbound, Registration { sessions: Arc::clone(self), id }))
@@ -72,7 +83,8 @@ impl WebSessions {
                 Ok(queue.next_update - 1)
             }
             Err(mpsc::error::TrySendError::Full(_)) => Err(Status::resource_exhausted(format!(
-                "session_id: the session has {QUEUED_UPDATES} changes not yet read: wait for their acknowledgements"
+                "session_id: the session has {} changes not yet read (--web-session-queue): wait for their acknowledgements",
+                self.capacity
             ))),
             Err(mpsc::error::TrySendError::Closed(_)) => {
                 Err(Status::not_found("session_id: the session has ended: open a new one with WatchSession"))
@@ -120,14 +132,14 @@ mod tests {
 
     #[tokio::test]
     async fn a_full_queue_is_refused_and_an_ended_session_is_not_found() {
-        let sessions = Arc::new(WebSessions::default());
+        let sessions = Arc::new(WebSessions::new(3));
         let (id, _inbound, reg) = sessions.open().unwrap();
-        for _ in 0..QUEUED_UPDATES {
+        for _ in 0..3 {
             sessions.update(&id, update()).unwrap();
         }
         let full = sessions.update(&id, update()).unwrap_err();
         assert_eq!(full.code(), tonic::Code::ResourceExhausted);
-        assert!(full.message().starts_with("session_id:"), "{}", full.message());
+        assert!(full.message().starts_with("session_id: the session has 3 changes"), "{}", full.message());
         drop(reg);
         assert!(sessions.is_empty());
         assert_eq!(sessions.update(&id, update()).unwrap_err().code(), tonic::Code::NotFound);
