@@ -1,6 +1,7 @@
 //! The lobe- and normal-aware modes (methods.md §3.4): Tokuyoshi's guides built once
 //! from the G-buffer, and his gather in place of the AAF filter.
 use super::{glossy_model, IndirectStrategy, Part};
+use crate::methods::lobe_aware::asg::AsgLobe;
 use crate::methods::lobe_aware::filter::{self, BilateralOptions, Guide, Similarity};
 use crate::methods::lobe_aware::lobe;
 use crate::methods::lobe_aware::options::{LobeAwareOptions, LobeShape};
@@ -25,7 +26,8 @@ pub(crate) fn guides(ctx: &PassContext, g: &GBuffer, glossy: bool, o: &LobeAware
             let (model, exponent) = (glossy_model(ctx.scene, s.material), s.exponent as f64);
             let lobe = if glossy { lobe::specular(model, exponent, n, psi, &o.lobe) } else { lobe::diffuse(n) };
             let asg = (glossy && o.lobe.shape == LobeShape::Asg)
-                .then(|| lobe::specular_asg(model, exponent, n, psi, &o.lobe).smoothed(kappa));
+                .then(|| lobe::specular_asg(model, exponent, n, psi, &o.lobe).smoothed(kappa))
+                .and_then(AsgLobe::new);
             let (valid, depth) = (s.is_valid(), s.depth as f64);
             Guide { valid, depth, normal: n, lobe: lobe.smoothed(kappa), asg, sigma_px: 0.0 }
         })

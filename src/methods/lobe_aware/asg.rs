@@ -165,14 +165,33 @@ pub const MIN_SHARPNESS: f64 = 2.0;
 /// apply (a low-frequency lobe, or `ln_product_integral` without an answer): the caller falls
 /// back to Eq. 12, as the paper recommends ASGs only for higher-frequency lobes.
 pub fn ln_weight(a: &Asg, b: &Asg, beta: f64) -> Option<f64> {
-    if a.lx.min(a.ly) < MIN_SHARPNESS || b.lx.min(b.ly) < MIN_SHARPNESS {
-        return None;
+    AsgLobe::new(*a)?.ln_weight(&AsgLobe::new(*b)?, beta)
+}
+
+/// A high-frequency lobe ready for Eq. 13: the ASG and ln of its product integral with itself
+/// (Eq. 7's normalisation, computed once per pixel rather than once per pair).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AsgLobe {
+    pub lobe: Asg,
+    ln_self: f64,
+}
+
+impl AsgLobe {
+    /// None for a low-frequency lobe (flatter sharpness below `MIN_SHARPNESS`), which Eq. 12
+    /// compares instead.
+    pub fn new(lobe: Asg) -> Option<AsgLobe> {
+        if lobe.lx.min(lobe.ly) < MIN_SHARPNESS {
+            return None;
+        }
+        Some(AsgLobe { lobe, ln_self: ln_product_integral(&lobe, &lobe)? })
     }
-    let ab = ln_product_integral(a, b)?;
-    let aa = ln_product_integral(a, a)?;
-    let bb = ln_product_integral(b, b)?;
-    let ln_w = beta * (ab - 0.5 * (aa + bb)).min(0.0);
-    (!ln_w.is_nan()).then_some(ln_w)
+
+    /// ln of Eq. 13 against `other` (see `ln_weight`).
+    pub fn ln_weight(&self, other: &AsgLobe, beta: f64) -> Option<f64> {
+        let ab = ln_product_integral(&self.lobe, &other.lobe)?;
+        let ln_w = beta * (ab - 0.5 * (self.ln_self + other.ln_self)).min(0.0);
+        (!ln_w.is_nan()).then_some(ln_w)
+    }
 }
 
 #[cfg(test)]

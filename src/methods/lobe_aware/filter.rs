@@ -2,7 +2,8 @@
 //! weighted mean of its neighbours' with `W(i, j) = f(s_i, s_j) w_z(i, j) w_omega(i, j)`, a
 //! screen-space Gaussian f times the depth weight (Eq. 3) times the directional weight, either
 //! lobe-aware (Eq. 12) or the normal-aware baseline (Eq. 4). The three factors are added as
-//! logarithms, one exponential per neighbour.
+//! logarithms, one exponential per neighbour. Pixels whose guides carry ASG lobes (`LobeShape::Asg`)
+//! are compared by Eq. 13 instead of Eq. 12 where both lobes are high-frequency.
 //!
 //! The screen-space kernel's width is the centre pixel's own (`Guide::sigma_px`), so a caller
 //! can narrow it pass by pass (the stream's consistency) or take it from a frequency analysis
@@ -11,7 +12,7 @@
 //! then a vertical 1-D gather with the same weights, as the AAF filters do), the default for
 //! its cost: 2 (2r + 1) neighbours per pixel instead of (2r + 1)^2. Rows run in parallel; the
 //! result does not depend on the thread count.
-use super::asg::{self, Asg};
+use super::asg::AsgLobe;
 use super::sg::Sg;
 use super::weights::{ln_depth_weight, ln_lobe_weight, ln_normal_weight};
 use glam::DVec3;
@@ -29,7 +30,8 @@ pub struct Guide {
     /// The smoothed lobe (Eq. 10) of the component being filtered (the lobe-aware guide).
     pub lobe: Sg,
     /// The same lobe as a smoothed ASG, where the options ask for Eq. 13 (`LobeShape::Asg`).
-    pub asg: Option<Asg>,
+    /// None for a low-frequency one, which Eq. 12 compares.
+    pub asg: Option<AsgLobe>,
     /// Standard deviation of the screen-space kernel f, in pixels, when this pixel is a
     /// centre; 0 keeps its value.
     pub sigma_px: f64,
@@ -77,7 +79,7 @@ impl Similarity {
     fn ln_weight(&self, c: &Guide, j: &Guide) -> f64 {
         match *self {
             Similarity::Lobe { beta } => match (&c.asg, &j.asg) {
-                (Some(a), Some(b)) => asg::ln_weight(a, b, beta),
+                (Some(a), Some(b)) => a.ln_weight(b, beta),
                 _ => None,
             }
             .unwrap_or_else(|| ln_lobe_weight(&c.lobe, &j.lobe, beta)),
