@@ -66,6 +66,52 @@ pub fn final_frame(job: &RenderJob) -> Option<Frame> {
     last
 }
 
+/// Which pixels the errors count: all but those whose reference exceeds `exclude_above` in some
+/// channel (a light in view) and their 8 neighbours (its edge, whose error is the camera
+/// jitter's coverage, which no filter touches), as `bench/race.py` leaves them out.
+pub fn kept_pixels(reference: &Frame, exclude_above: Option<f32>) -> Vec<bool> {
+    let (w, h) = (reference.width as usize, reference.height as usize);
+    let Some(t) = exclude_above else { return vec![true; w * h] };
+    let bright: Vec<bool> = reference.color.iter().map(|c| c.iter().any(|&v| v > t)).collect();
+    (0..w * h)
+        .map(|p| {
+            let (x, y) = ((p % w) as isize, (p / w) as isize);
+            !(-1..=1).any(|dy| {
+                (-1..=1).any(|dx| {
+                    let (nx, ny) = (x + dx, y + dy);
+                    nx >= 0
+                        && ny >= 0
+                        && (nx as usize) < w
+                        && (ny as usize) < h
+                        && bright[ny as usize * w + nx as usize]
+                })
+            })
+        })
+        .collect()
+}
+
+/// RMSE over the kept pixels' channels.
+pub fn rmse_kept(a: &Frame, b: &Frame, keep: &[bool]) -> f64 {
+    mean_kept(a, b, keep, |x, _| x * x).sqrt()
+}
+
+/// Relative MSE (`rel_mse`) over the kept pixels.
+pub fn rel_mse_kept(a: &Frame, b: &Frame, keep: &[bool]) -> f64 {
+    mean_kept(a, b, keep, |d, y| d * d / (y * y + 0.01))
+}
+
+/// The mean over kept pixels and channels of `f(x - ref, ref)`.
+fn mean_kept(a: &Frame, b: &Frame, keep: &[bool], f: impl Fn(f64, f64) -> f64) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for ((x, y), _) in a.color.iter().zip(&b.color).zip(keep).filter(|(_, &k)| k) {
+        for c in 0..3 {
+            sum += f(x[c] as f64 - y[c] as f64, y[c] as f64);
+        }
+        n += 3;
+    }
+    sum / n.max(1) as f64
+}
+
 pub fn rel_mse(a: &Frame, b: &Frame) -> f64 {
     let n = a.color.len().min(b.color.len()).max(1);
     let sum: f64 = a
@@ -87,7 +133,7 @@ pub fn rmse(a: &Frame, b: &Frame) -> f64 {
 /// Every frame of `job` as a point on its error curve, and the last frame. FLIP is computed
 /// after the render (it is slower than the other metrics, and must not count in its seconds),
 /// on the colour kept of each frame.
-pub fn sweep(job: &RenderJob, reference: &Frame) -> (Vec<Point>, Option<Frame>) {
+pub fn sweep(job: &RenderJob, reference: &Frame, keep: &[bool]) -> (Vec<Point>, Option<Frame>) {
     let mut points = Vec::new();
     let mut colours = Vec::new();
     let cpu0 = super::process_cpu_seconds();
@@ -101,14 +147,14 @@ pub fn sweep(job: &RenderJob, reference: &Frame) -> (Vec<Point>, Option<Frame>) 
             method_seconds: f.stats.method_seconds,
             cpu_seconds: cpu0.and_then(|c| super::process_cpu_seconds().map(|n| n - c)),
             rays: f.stats.rays_traced,
-            rmse: rmse(f, reference),
-            rel_mse: rel_mse(f, reference),
+            rmse: rmse_kept(f, reference, keep),
+            rel_mse: rel_mse_kept(f, reference, keep),
             flip: 0.0,
         });
         true
     });
     for (p, c) in points.iter_mut().zip(&colours) {
-        p.flip = super::flip::mean_flip(c, reference);
+        p.flip = super::flip::mean_flip_kept(c, reference, keep);
     }
     (points, colours.pop())
 }
@@ -167,6 +213,27 @@ mod tests {
             rel_mse: 0.0,
             flip: 0.0,
         }
+    }
+
+    #[test]
+    fn a_light_and_its_edge_are_left_out_and_the_rest_counts_as_before() {
+        let mut reference = Frame { width: 5, height: 4, color: vec![[0.5; 3]; 20], ..Default::default() };
+        reference.color[2 * 5 + 2] = [9.0, 0.1, 0.1];
+        reference.color[0] = [0.2, 3.0, 0.2];
+        let keep = kept_pixels(&reference, Some(1.0));
+        // The pixel at (2, 2) and its 8 neighbours; the corner and its 3, of which (1, 1) is
+        // one of the first nine.
+        assert_eq!(keep.iter().filter(|k| !**k).count(), 9 + 4 - 1);
+        assert_eq!([keep[4], keep[19], keep[6], keep[13], keep[7]], [true, true, false, false, false]);
+        assert!(kept_pixels(&reference, None).iter().all(|k| *k));
+        // With every pixel kept, the plain metrics.
+        let mut test = reference.clone();
+        test.color[7] = [0.7, 0.5, 0.5];
+        let all = vec![true; 20];
+        assert_eq!(rmse_kept(&test, &reference, &all), rmse(&test, &reference));
+        assert_eq!(rel_mse_kept(&test, &reference, &all), rel_mse(&test, &reference));
+        // Pixel 7 is next to the light: left out, no error remains.
+        assert_eq!(rmse_kept(&test, &reference, &keep), 0.0);
     }
 
     #[test]

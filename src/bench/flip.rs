@@ -34,6 +34,14 @@ pub fn mean_flip(test: &Frame, reference: &Frame) -> f64 {
     map.iter().map(|&v| f64::from(v)).sum::<f64>() / map.len().max(1) as f64
 }
 
+/// The mean FLIP error over the pixels `keep` marks (FLIP itself sees the whole image, as its
+/// spatial filters need the neighbours).
+pub fn mean_flip_kept(test: &Frame, reference: &Frame, keep: &[bool]) -> f64 {
+    let map = error_map(test, reference).to_vec();
+    let kept: Vec<f64> = map.iter().zip(keep).filter(|(_, &k)| k).map(|(&v, _)| f64::from(v)).collect();
+    kept.iter().sum::<f64>() / kept.len().max(1) as f64
+}
+
 /// Writes FLIP's error map of `test` against `reference` as a PNG in FLIP's magma colours
 /// (black: no visible difference; yellow-white: the largest).
 pub fn write_error_png(test: &Frame, reference: &Frame, path: &Path) -> anyhow::Result<()> {

@@ -43,6 +43,9 @@ pub struct BenchConfig {
     pub flip_maps: bool,
     /// Glossy lobes as ASGs (Tokuyoshi's Eq. 13, `LobeShape::Asg`).
     pub asg_lobes: bool,
+    /// Leave out of every error the pixels whose reference exceeds this in some channel and
+    /// their neighbours (`convergence::kept_pixels`): a light in view.
+    pub exclude_above: Option<f32>,
     pub out: PathBuf,
     pub name: String,
     /// The command line, recorded in the report.
@@ -64,6 +67,8 @@ pub struct SceneResult {
     /// Each method's last frame of its first seed, and the reference (for the FLIP maps).
     pub last_frames: Vec<(Method, crate::pipeline::frame::Frame)>,
     pub reference: crate::pipeline::frame::Frame,
+    /// Pixels the errors count, and how many were left out.
+    pub excluded: usize,
 }
 
 fn median_curve(method: Method, runs: &[Vec<Point>]) -> Curve {
@@ -116,6 +121,8 @@ pub fn bench_scene(name: &str, mut scene: proto::Scene, cfg: &BenchConfig) -> an
             (f, note)
         }
     };
+    let keep = super::convergence::kept_pixels(&reference, cfg.exclude_above);
+    let excluded = keep.iter().filter(|k| !**k).count();
     let mut runs = Vec::new();
     let mut curves = Vec::new();
     let mut last_frames = Vec::new();
@@ -137,7 +144,7 @@ pub fn bench_scene(name: &str, mut scene: proto::Scene, cfg: &BenchConfig) -> an
             if cfg.asg_lobes {
                 j.lobe.lobe.shape = crate::methods::lobe_aware::options::LobeShape::Asg;
             }
-            let (pts, last) = sweep(&j, &reference);
+            let (pts, last) = sweep(&j, &reference, &keep);
             if let Some(last) = last.filter(|_| r == 0) {
                 last_frames.push((method, last));
             }
@@ -146,7 +153,7 @@ pub fn bench_scene(name: &str, mut scene: proto::Scene, cfg: &BenchConfig) -> an
         }
         curves.push(median_curve(method, &per_seed));
     }
-    Ok(SceneResult { name: name.to_string(), bounces, reference_note, runs, curves, last_frames, reference })
+    Ok(SceneResult { name: name.to_string(), bounces, reference_note, runs, curves, last_frames, reference, excluded })
 }
 
 /// The non-default options of a run, for the report's headings.
@@ -166,6 +173,9 @@ fn options_note(cfg: &BenchConfig) -> String {
     }
     if cfg.asg_lobes {
         s += ", ASG lobes (Eq. 13)";
+    }
+    if let Some(t) = cfg.exclude_above {
+        let _ = write!(s, ", errors without pixels whose reference exceeds {t} and their neighbours");
     }
     s
 }
@@ -190,6 +200,9 @@ pub fn markdown(results: &[SceneResult], cfg: &BenchConfig) -> String {
             r.reference_note,
             cfg.repeats
         );
+        if r.excluded > 0 {
+            let _ = writeln!(s, "{} pixels left out of the errors.\n", r.excluded);
+        }
         let _ = writeln!(s, "| method | pass | mean spp | seconds | CPU s | method share | RMSE | rel. MSE | FLIP | speedup over uniform at equal error (samples, time) |");
         let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
         let base = r.curves.iter().find(|c| c.method == Method::Uniform).map(|c| c.points.as_slice()).unwrap_or(&[]);
@@ -244,7 +257,7 @@ pub fn write_outputs(results: &[SceneResult], cfg: &BenchConfig) -> anyhow::Resu
         .map(|r| {
             let base = r.curves.iter().find(|c| c.method == Method::Uniform).map(|c| c.points.as_slice()).unwrap_or(&[]);
             json!({
-                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces, "pixel_centers": cfg.pixel_centers, "indirect_kernel_scale": cfg.indirect_kernel_scale, "shadow_mu0": cfg.shadow_mu0, "shadow_profile_sigma": cfg.shadow_profile_sigma, "asg_lobes": cfg.asg_lobes,
+                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces, "pixel_centers": cfg.pixel_centers, "indirect_kernel_scale": cfg.indirect_kernel_scale, "shadow_mu0": cfg.shadow_mu0, "shadow_profile_sigma": cfg.shadow_profile_sigma, "asg_lobes": cfg.asg_lobes, "exclude_above": cfg.exclude_above, "excluded_pixels": r.excluded,
                 "reference": r.reference_note,
                 "runs": r.runs.iter().map(|(seed, p)| { let mut v = point(p); v["repeat"] = json!(seed); v }).collect::<Vec<_>>(),
                 "medians": r.curves.iter().flat_map(|c| c.points.iter().map(|p| {
@@ -363,6 +376,7 @@ mod tests {
             shadow_profile_sigma: false,
             flip_maps: true,
             asg_lobes: false,
+            exclude_above: None,
             out: out.clone(),
             name: "t".into(),
             command: "test".into(),

@@ -69,6 +69,10 @@ pub struct ConvergenceArgs {
     /// rather than SGs by Eq. 12.
     #[arg(long)]
     pub asg_lobes: bool,
+    /// Leave out of the errors the pixels whose reference exceeds this in some channel, and
+    /// their 8 neighbours (a light in view and its edge), as bench/race.py does.
+    #[arg(long)]
+    pub exclude_above: Option<f32>,
     /// Also write each method's FLIP error map of its last frame (first seed),
     /// NAME-SCENE-METHOD-flip.png, in FLIP's magma colours.
     #[arg(long)]
@@ -430,6 +434,10 @@ fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
     );
     let names = if a.scenes.is_empty() { builtin::names().map(String::from).collect() } else { a.scenes.clone() };
     anyhow::ensure!(a.reference.is_none() || names.len() == 1, "--reference is one image: give one scene");
+    anyhow::ensure!(
+        a.exclude_above.is_none_or(|t| t.is_finite() && t > 0.0),
+        "--exclude-above: must be a finite number > 0"
+    );
     for (flag, v) in [("--indirect-kernel-scale", a.indirect_kernel_scale), ("--shadow-mu0", a.shadow_mu0)] {
         anyhow::ensure!(v.is_none_or(|v| v.is_finite() && v > 0.0), "{flag}: must be a finite number > 0");
     }
@@ -451,6 +459,7 @@ fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
         shadow_profile_sigma: a.shadow_profile_sigma,
         flip_maps: a.flip_maps,
         asg_lobes: a.asg_lobes,
+        exclude_above: a.exclude_above,
         out: a.out.clone(),
         name: a.name.clone().unwrap_or_else(|| if q { "quick".into() } else { "full".into() }),
         command: std::env::args().collect::<Vec<_>>().join(" "),

@@ -1,36 +1,21 @@
 //! Oracles of the ASG lobes (methods.md §3.3, §3.6): integrals and product integrals against
-//! quadrature over the sphere, the eigen-solver against reconstruction, the warp against the
-//! reflected NDF it stands for, and the weight's normalisation, symmetry and range.
+//! quadrature over the sphere (about +z, within 20 degrees of which every lobe here points),
+//! the eigen-solver against reconstruction, the warp against the reflected NDF it stands for,
+//! and the weight's normalisation, symmetry and range.
 use super::*;
 use crate::methods::lobe_aware::lobe::specular_asg as specular;
 use crate::methods::lobe_aware::options::LobeOptions;
 use crate::methods::lobe_aware::sg::Sg;
+use crate::methods::lobe_aware::tests::sphere_integral;
 use crate::methods::lobe_aware::weights::ln_lobe_weight;
 use crate::render::material::GlossyModel;
-
-/// The integral of `f` over the sphere, in a frame about `z` (midpoint rule in theta and phi).
-fn sphere_integral(z: DVec3, f: impl Fn(DVec3) -> f64) -> f64 {
-    let (x, y) = z.any_orthonormal_pair();
-    let (nt, np) = (1500, 1500);
-    let (dt, dp) = (PI / nt as f64, 2.0 * PI / np as f64);
-    let mut sum = 0.0;
-    for i in 0..nt {
-        let t = (i as f64 + 0.5) * dt;
-        let (st, ct) = t.sin_cos();
-        for j in 0..np {
-            let (sp, cp) = ((j as f64 + 0.5) * dp).sin_cos();
-            sum += f(x * (st * cp) + y * (st * sp) + z * ct) * st;
-        }
-    }
-    sum * dt * dp
-}
 
 #[test]
 fn the_integral_matches_quadrature_and_its_limits() {
     assert!((ln_integral(0.0, 0.0).exp() - PI).abs() < 1e-12, "a cosine lobe integrates to pi");
     for (lx, ly) in [(5.0, 1.0), (1.0, 5.0), (50.0, 3.0), (200.0, 0.0), (30.0, 30.0), (120.0, 45.0)] {
         let asg = Asg::new(DVec3::Z, DVec3::X, lx, ly);
-        let want = sphere_integral(DVec3::Z, |w| asg.eval(w));
+        let want = sphere_integral(|w| asg.eval(w), 1500);
         let got = ln_integral(lx, ly).exp();
         assert!((got / want - 1.0).abs() < 2e-3, "B({lx}, {ly}) = {got}, quadrature {want}");
     }
@@ -76,7 +61,7 @@ fn the_product_integral_matches_quadrature_for_sharp_lobes() {
         (Asg::new(DVec3::Z, DVec3::X, 40.0, 8.0), Asg::new(tilt(20.0), DVec3::X, 40.0, 8.0)),
     ];
     for (a, b) in cases {
-        let want = sphere_integral(a.z, |w| a.eval(w) * b.eval(w));
+        let want = sphere_integral(|w| a.eval(w) * b.eval(w), 1500);
         let got = ln_product_integral(&a, &b).expect("defined").exp();
         assert!((got / want - 1.0).abs() < 0.03, "{got} against quadrature {want} for {a:?} {b:?}");
     }

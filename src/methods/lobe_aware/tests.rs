@@ -8,7 +8,7 @@ use glam::DVec3;
 use std::f64::consts::PI;
 
 /// Midpoint quadrature of f over the unit sphere, in polar coordinates about +z.
-fn sphere_integral(f: impl Fn(DVec3) -> f64, n_theta: usize) -> f64 {
+pub(super) fn sphere_integral(f: impl Fn(DVec3) -> f64, n_theta: usize) -> f64 {
     let n_phi = 2 * n_theta;
     let (dt, dp) = (PI / n_theta as f64, 2.0 * PI / n_phi as f64);
     let mut sum = 0.0;
