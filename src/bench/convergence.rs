@@ -92,42 +92,41 @@ pub fn kept_pixels(reference: &Frame, exclude_above: Option<f32>) -> Vec<bool> {
 
 /// RMSE over the kept pixels' channels.
 pub fn rmse_kept(a: &Frame, b: &Frame, keep: &[bool]) -> f64 {
-    mean_kept(a, b, keep, |x, _| x * x).sqrt()
+    mean_over(a, b, |p| keep[p], squared).sqrt()
 }
 
 /// Relative MSE (`rel_mse`) over the kept pixels.
 pub fn rel_mse_kept(a: &Frame, b: &Frame, keep: &[bool]) -> f64 {
-    mean_kept(a, b, keep, |d, y| d * d / (y * y + 0.01))
+    mean_over(a, b, |p| keep[p], relative)
 }
 
-/// The mean over kept pixels and channels of `f(x - ref, ref)`.
-fn mean_kept(a: &Frame, b: &Frame, keep: &[bool], f: impl Fn(f64, f64) -> f64) -> f64 {
+/// Mean over pixels and channels of (x - ref)^2 / (ref^2 + 0.01).
+pub fn rel_mse(a: &Frame, b: &Frame) -> f64 {
+    mean_over(a, b, |_| true, relative)
+}
+
+pub fn rmse(a: &Frame, b: &Frame) -> f64 {
+    mean_over(a, b, |_| true, squared).sqrt()
+}
+
+fn squared(d: f64, _reference: f64) -> f64 {
+    d * d
+}
+
+fn relative(d: f64, reference: f64) -> f64 {
+    d * d / (reference * reference + 0.01)
+}
+
+/// The mean over the pixels `keep` takes and their channels of `f(x - ref, ref)`.
+fn mean_over(a: &Frame, b: &Frame, keep: impl Fn(usize) -> bool, f: fn(f64, f64) -> f64) -> f64 {
     let (mut sum, mut n) = (0.0, 0usize);
-    for ((x, y), _) in a.color.iter().zip(&b.color).zip(keep).filter(|(_, &k)| k) {
+    for (_, (x, y)) in a.color.iter().zip(&b.color).enumerate().filter(|(p, _)| keep(*p)) {
         for c in 0..3 {
             sum += f(x[c] as f64 - y[c] as f64, y[c] as f64);
         }
         n += 3;
     }
     sum / n.max(1) as f64
-}
-
-pub fn rel_mse(a: &Frame, b: &Frame) -> f64 {
-    let n = a.color.len().min(b.color.len()).max(1);
-    let sum: f64 = a
-        .color
-        .iter()
-        .zip(&b.color)
-        .flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2) / ((y[c] as f64).powi(2) + 0.01)))
-        .sum();
-    sum / (3 * n) as f64
-}
-
-pub fn rmse(a: &Frame, b: &Frame) -> f64 {
-    let n = a.color.len().min(b.color.len()).max(1);
-    let se: f64 =
-        a.color.iter().zip(&b.color).flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2))).sum();
-    (se / (3 * n) as f64).sqrt()
 }
 
 /// Every frame of `job` as a point on its error curve, and the last frame. FLIP is computed

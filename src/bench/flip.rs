@@ -30,16 +30,23 @@ pub fn error_map(test: &Frame, reference: &Frame) -> nv_flip::FlipImageFloat {
 
 /// The mean FLIP error of `test` against `reference`.
 pub fn mean_flip(test: &Frame, reference: &Frame) -> f64 {
-    let map = error_map(test, reference).to_vec();
-    map.iter().map(|&v| f64::from(v)).sum::<f64>() / map.len().max(1) as f64
+    mean_where(test, reference, |_| true)
 }
 
 /// The mean FLIP error over the pixels `keep` marks (FLIP itself sees the whole image, as its
 /// spatial filters need the neighbours).
 pub fn mean_flip_kept(test: &Frame, reference: &Frame, keep: &[bool]) -> f64 {
+    mean_where(test, reference, |p| keep[p])
+}
+
+fn mean_where(test: &Frame, reference: &Frame, keep: impl Fn(usize) -> bool) -> f64 {
     let map = error_map(test, reference).to_vec();
-    let kept: Vec<f64> = map.iter().zip(keep).filter(|(_, &k)| k).map(|(&v, _)| f64::from(v)).collect();
-    kept.iter().sum::<f64>() / kept.len().max(1) as f64
+    let (sum, n) = map
+        .iter()
+        .enumerate()
+        .filter(|(p, _)| keep(*p))
+        .fold((0.0, 0usize), |(s, n), (_, &v)| (s + f64::from(v), n + 1));
+    sum / n.max(1) as f64
 }
 
 /// Writes FLIP's error map of `test` against `reference` as a PNG in FLIP's magma colours

@@ -318,10 +318,18 @@ impl Renderer for RenderService {
         let rid = request.extensions().get::<RequestId>().map_or(0, |id| id.0);
         // Compiling is a render's worth of work: it holds a slot (taken by `admission`).
         let _slot = request.extensions_mut().remove::<RenderSlot>();
-        let scene = put_scene_source(request.into_inner()).inspect_err(|_| {
-            self.state.metrics.reject(RejectReason::Invalid);
-        })?;
-        let digest = scene_cache::digest(&scene);
+        // Parsing a scene file's text and hashing a large scene are a compile's kind of work:
+        // off the async workers.
+        let req = request.into_inner();
+        let parsed = tokio::task::spawn_blocking(move || {
+            put_scene_source(req).map(|scene| {
+                let digest = scene_cache::digest(&scene);
+                (scene, digest)
+            })
+        })
+        .await
+        .map_err(|_| Status::internal("scene parsing failed"))?;
+        let (scene, digest) = parsed.inspect_err(|_| self.state.metrics.reject(RejectReason::Invalid))?;
         let reply = |s: &StoredScene| {
             Response::new(PutSceneResponse { digest: s.digest.clone(), bytes: s.bytes, triangles: s.triangles })
         };

@@ -329,11 +329,16 @@ async fn control(
             }
         };
         let next = apply_update(&scene.base, &change);
-        // Material and light edits make a new compiled scene on the same (or a refitted) BVH.
-        let edited = match &change.edit {
+        // Material and light edits make a new compiled scene on the same (or a refitted) BVH:
+        // a refit copies the geometry, so it runs off the async workers.
+        let edited = match change.edit.clone() {
             None => Ok((scene.header.clone(), Arc::clone(&scene.compiled))),
             Some(edit) => {
-                crate::scene::edit::apply(&scene.header, &scene.compiled, edit).map(|(h, c)| (h, Arc::new(c)))
+                let (header, compiled) = (scene.header.clone(), Arc::clone(&scene.compiled));
+                match tokio::task::spawn_blocking(move || crate::scene::edit::apply(&header, &compiled, &edit)).await {
+                    Ok(result) => result.map(|(h, c)| (h, Arc::new(c))),
+                    Err(_) => Err(crate::scene::FieldError { field: "edit".into(), message: "the edit failed".into() }),
+                }
             }
         };
         let prepared = edited.and_then(|(header, compiled)| {

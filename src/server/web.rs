@@ -21,15 +21,16 @@ const FILES: [(&str, &str, &str); 4] = [
 /// The response to a `GET` of `path` when the viewer is on: a file, or 404.
 fn page(path: &str) -> http::Response<Body> {
     let path = if path == "/index.html" { "/" } else { path };
-    let response = http::Response::builder().header("cache-control", "no-cache");
-    let response = match FILES.iter().find(|(p, _, _)| *p == path) {
-        Some((_, kind, text)) => response.header("content-type", *kind).body(Body::new(full(text))),
-        None => response
-            .status(http::StatusCode::NOT_FOUND)
-            .header("content-type", "text/plain; charset=utf-8")
-            .body(Body::new(full("not found: the viewer is at /"))),
+    let (status, kind, text) = match FILES.iter().find(|(p, _, _)| *p == path) {
+        Some(&(_, kind, text)) => (http::StatusCode::OK, kind, text),
+        None => (http::StatusCode::NOT_FOUND, "text/plain; charset=utf-8", "not found: the viewer is at /"),
     };
-    response.expect("static headers are valid")
+    let mut response = http::Response::new(Body::new(full(text)));
+    *response.status_mut() = status;
+    let headers = response.headers_mut();
+    headers.insert(http::header::CONTENT_TYPE, http::HeaderValue::from_static(kind));
+    headers.insert(http::header::CACHE_CONTROL, http::HeaderValue::from_static("no-cache"));
+    response
 }
 
 fn full(text: &'static str) -> http_body_util::Full<Bytes> {

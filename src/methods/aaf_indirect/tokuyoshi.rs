@@ -22,12 +22,16 @@ pub(crate) fn guides(ctx: &PassContext, g: &GBuffer, glossy: bool, o: &LobeAware
         .par_iter()
         .map(|s| {
             let n = s.normal.as_dvec3();
-            let psi = (camera - s.position.as_dvec3()).normalize_or_zero();
-            let (model, exponent) = (glossy_model(ctx.scene, s.material), s.exponent as f64);
-            let lobe = if glossy { lobe::specular(model, exponent, n, psi, &o.lobe) } else { lobe::diffuse(n) };
-            let asg = (glossy && o.lobe.shape == LobeShape::Asg)
-                .then(|| lobe::specular_asg(model, exponent, n, psi, &o.lobe).smoothed(kappa))
-                .and_then(AsgLobe::new);
+            let (lobe, asg) = if glossy {
+                let psi = (camera - s.position.as_dvec3()).normalize_or_zero();
+                let (model, exponent) = (glossy_model(ctx.scene, s.material), s.exponent as f64);
+                let asg = (o.lobe.shape == LobeShape::Asg)
+                    .then(|| lobe::specular_asg(model, exponent, n, psi, &o.lobe).smoothed(kappa))
+                    .and_then(AsgLobe::new);
+                (lobe::specular(model, exponent, n, psi, &o.lobe), asg)
+            } else {
+                (lobe::diffuse(n), None)
+            };
             let (valid, depth) = (s.is_valid(), s.depth as f64);
             Guide { valid, depth, normal: n, lobe: lobe.smoothed(kappa), asg, sigma_px: 0.0 }
         })
