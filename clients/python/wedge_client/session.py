@@ -30,7 +30,6 @@ class Session:
     """
 
     def __init__(self, stub, open_request: pb.RenderRequest, metadata=()):
-        self._open = open_request
         self._settings = pb.RenderSettings()
         self._settings.CopyFrom(open_request.settings)
         self._queue: "queue.Queue[Optional[pb.SessionRequest]]" = queue.Queue()
