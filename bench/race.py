@@ -23,7 +23,8 @@ denoiser and no filter touches and which would otherwise dominate the error), as
 figures leave out the light's own pixels.
 FLIP is LDR-FLIP (flip-evaluator) on sRGB-encoded images clamped to [0, 1].
 
-A method `M+oidn` is wedge's method M writing its denoiser inputs (`--aovs`) and OIDN run on
+A method `M/N` is wedge's method M with `--upsample N` (lobe-aware and normal-aware: indirect
+light traced at every N-th pixel and upsampled). A method `M+oidn` is wedge's method M writing its denoiser inputs (`--aovs`) and OIDN run on
 its frame with them, as for Mitsuba: its seconds are the render's plus OIDN's, and its row at
 a budget is read off its curve over the budgets like Mitsuba's.
 
@@ -226,6 +227,8 @@ def wedge_runs(args, mc, path, bounces, metrics):
     with tempfile.TemporaryDirectory() as tmp:
         for method in args.methods:
             base, oidn = (method[:-5], True) if method.endswith("+oidn") else (method, False)
+            # `M/N`: M with its indirect light traced at every N-th pixel and upsampled.
+            base, _, factor = base.partition("/")
             for budget in args.budgets:
                 rows = []
                 for seed in range(1, args.seeds + 1):
@@ -233,6 +236,8 @@ def wedge_runs(args, mc, path, bounces, metrics):
                            "--seed", str(seed), "--method", base, "--time", str(budget), "--bounces", str(bounces)]
                     if oidn:
                         cmd.append("--aovs")
+                    if factor:
+                        cmd += ["--upsample", factor]
                     p = subprocess.run(cmd, capture_output=True, text=True)
                     m = WROTE.search(p.stderr)
                     if p.returncode != 0 or not m:

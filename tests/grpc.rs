@@ -505,6 +505,38 @@ async fn aaf_streams_the_component_maps() {
     }
 }
 
+/// `settings.upsample_factor` reaches the lobe-aware method: its diffuse samples are traced
+/// at the half-resolution grid's sites and a few re-rendered pixels only, while every pixel
+/// takes its camera samples; the remote frame equals the local render; and a method that does
+/// not upsample refuses the field.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn upsampling_crosses_the_wire() {
+    let server = TestServer::start().await;
+    let mut req = cornell(32, 24, 2, 4);
+    if let Some(s) = req.settings.as_mut() {
+        s.method = Method::LobeAware as i32;
+        s.upsample_factor = 2;
+    }
+    req.outputs = Some(OutputSelection { color: true, spp: true, components: true, ..Default::default() });
+    let got = within(300, "upsampled render", async { collect(&mut server.client().await, req.clone()).await })
+        .await
+        .expect("upsampled render");
+    let last = got.frames.last().expect("a final frame");
+    assert_eq!(color_bits(last), color_bits(&render_locally(&req, "upsampled")));
+    let diffuse = &last.components.iter().find(|c| c.name == "diffuse").expect("a diffuse map").spp;
+    let site = |p: usize| (p % 32).is_multiple_of(2) && (p / 32).is_multiple_of(2);
+    let off_sites = (0..diffuse.len()).filter(|&p| !site(p) && diffuse[p] > 0.0).count();
+    let upsampled = (0..diffuse.len()).filter(|&p| diffuse[p] == 0.0 && last.spp[p] > 0.0).count();
+    assert!(off_sites > 0 && off_sites < upsampled, "{off_sites} re-rendered, {upsampled} upsampled");
+    assert!(last.spp.iter().all(|&n| n == last.spp[0] && n > 0.0));
+
+    let mut req = cornell(8, 6, 1, 1);
+    if let Some(s) = req.settings.as_mut() {
+        s.upsample_factor = 2;
+    }
+    expect_invalid(&server, req, "settings.upsample_factor").await;
+}
+
 /// The noise target, the error estimate and whether a pass was complete cross the wire as
 /// they are computed: the remote stream equals the local render, field for field.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -2,6 +2,7 @@
 //! front ends go through here, so the same request renders the same image either way, and every
 //! field of the request is checked in one place.
 use crate::api::wire::wants_aovs;
+use crate::methods::lobe_aware::options::{LobeAwareOptions, MAX_UPSAMPLE_FACTOR};
 use crate::pipeline::frame::{CameraInfo, RenderInfo};
 use crate::pipeline::job::{Halt, Integrand, Method, RenderJob};
 use crate::pipeline::registry::DEFAULT_METHOD;
@@ -166,6 +167,7 @@ pub fn prepare_compiled(
         );
     }
     let integrand = integrand(&settings, compiled.world_scale)?;
+    let lobe = lobe_options(&settings, method)?;
     let cam = header.camera.as_ref().map(camera_info).unwrap_or_default();
     Ok(PreparedJob {
         job: RenderJob {
@@ -180,7 +182,7 @@ pub fn prepare_compiled(
             integrand,
             pixel_centers: settings.pixel_centers,
             indirect: Default::default(),
-            lobe: Default::default(),
+            lobe,
             auto: Default::default(),
             aov_samples: if req.outputs.as_ref().is_some_and(wants_aovs) { AOV_SAMPLES } else { 0 },
         },
@@ -286,8 +288,25 @@ fn merge_settings(scene: Option<&proto::RenderSettings>, req: Option<&proto::Ren
         if r.ambient_occlusion_distance != 0.0 {
             s.ambient_occlusion_distance = r.ambient_occlusion_distance;
         }
+        if r.upsample_factor != 0 {
+            s.upsample_factor = r.upsample_factor;
+        }
     }
     s
+}
+
+/// The lobe- and normal-aware methods' options: their upsampling factor, checked.
+fn lobe_options(s: &proto::RenderSettings, method: Method) -> FieldResult<LobeAwareOptions> {
+    let mut o = LobeAwareOptions::default();
+    let field = "settings.upsample_factor";
+    if s.upsample_factor > MAX_UPSAMPLE_FACTOR {
+        return err(field, format!("must be <= {MAX_UPSAMPLE_FACTOR}, got {}", s.upsample_factor));
+    }
+    if s.upsample_factor > 1 && !matches!(method, Method::LobeAware | Method::NormalAware) {
+        return err(field, format!("only lobe-aware and normal-aware upsample, not {}", method.name()));
+    }
+    o.upsample.factor = s.upsample_factor.max(1);
+    Ok(o)
 }
 
 /// Light or ambient occlusion; the occlusion distance is moved into the scene's internal units
@@ -497,6 +516,18 @@ mod tests {
         let mut r = builtin_req("cornell");
         r.settings = Some(proto::RenderSettings { ambient_occlusion_distance: 2.0, ..Default::default() });
         assert_eq!(field_of(r), "settings.ambient_occlusion_distance");
+        // Upsampling: at most MAX_UPSAMPLE_FACTOR, and only for the methods that upsample.
+        let lobe_aware = proto::Method::LobeAware as i32;
+        let mut r = builtin_req("cornell");
+        r.settings = Some(proto::RenderSettings { method: lobe_aware, upsample_factor: 9, ..Default::default() });
+        assert_eq!(field_of(r), "settings.upsample_factor");
+        let mut r = builtin_req("cornell");
+        r.settings = Some(proto::RenderSettings { upsample_factor: 2, ..Default::default() });
+        assert_eq!(field_of(r), "settings.upsample_factor");
+        let mut r = builtin_req("cornell");
+        r.settings = Some(proto::RenderSettings { method: lobe_aware, upsample_factor: 8, ..Default::default() });
+        let job = prepare(&r, &Limits::default(), None, "t").expect("factor 8 is allowed").job;
+        assert_eq!(job.lobe.upsample.factor, 8);
         // AAF state grows with pixels x area lights: bounded like the image. Two lights on a
         // 32 x 24 image: 1536 pixel-lights against a limit of 1000 pixels (the image fits).
         let mut scene = builtin::get("curved").unwrap();

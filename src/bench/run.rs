@@ -43,6 +43,8 @@ pub struct BenchConfig {
     pub flip_maps: bool,
     /// Glossy lobes as ASGs (Tokuyoshi's Eq. 13, `LobeShape::Asg`).
     pub asg_lobes: bool,
+    /// The lobe- and normal-aware methods' upsampling factor.
+    pub upsample: Option<u32>,
     /// Leave out of every error the pixels whose reference exceeds this in some channel and
     /// their neighbours (`convergence::kept_pixels`): a light in view.
     pub exclude_above: Option<f32>,
@@ -144,6 +146,9 @@ pub fn bench_scene(name: &str, mut scene: proto::Scene, cfg: &BenchConfig) -> an
             if cfg.asg_lobes {
                 j.lobe.lobe.shape = crate::methods::lobe_aware::options::LobeShape::Asg;
             }
+            if let Some(f) = cfg.upsample.filter(|_| matches!(method, Method::LobeAware | Method::NormalAware)) {
+                j.lobe.upsample.factor = f;
+            }
             let (pts, last) = sweep(&j, &reference, &keep);
             if let Some(last) = last.filter(|_| r == 0) {
                 last_frames.push((method, last));
@@ -173,6 +178,9 @@ fn options_note(cfg: &BenchConfig) -> String {
     }
     if cfg.asg_lobes {
         s += ", ASG lobes (Eq. 13)";
+    }
+    if let Some(f) = cfg.upsample {
+        let _ = write!(s, ", lobe- and normal-aware upsampled from every {f}th pixel");
     }
     if let Some(t) = cfg.exclude_above {
         let _ = write!(s, ", errors without pixels whose reference exceeds {t} and their neighbours");
@@ -257,7 +265,7 @@ pub fn write_outputs(results: &[SceneResult], cfg: &BenchConfig) -> anyhow::Resu
         .map(|r| {
             let base = r.curves.iter().find(|c| c.method == Method::Uniform).map(|c| c.points.as_slice()).unwrap_or(&[]);
             json!({
-                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces, "pixel_centers": cfg.pixel_centers, "indirect_kernel_scale": cfg.indirect_kernel_scale, "shadow_mu0": cfg.shadow_mu0, "shadow_profile_sigma": cfg.shadow_profile_sigma, "asg_lobes": cfg.asg_lobes, "exclude_above": cfg.exclude_above, "excluded_pixels": r.excluded,
+                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces, "pixel_centers": cfg.pixel_centers, "indirect_kernel_scale": cfg.indirect_kernel_scale, "shadow_mu0": cfg.shadow_mu0, "shadow_profile_sigma": cfg.shadow_profile_sigma, "asg_lobes": cfg.asg_lobes, "upsample": cfg.upsample, "exclude_above": cfg.exclude_above, "excluded_pixels": r.excluded,
                 "reference": r.reference_note,
                 "runs": r.runs.iter().map(|(seed, p)| { let mut v = point(p); v["repeat"] = json!(seed); v }).collect::<Vec<_>>(),
                 "medians": r.curves.iter().flat_map(|c| c.points.iter().map(|p| {
@@ -376,6 +384,7 @@ mod tests {
             shadow_profile_sigma: false,
             flip_maps: true,
             asg_lobes: false,
+            upsample: None,
             exclude_above: None,
             out: out.clone(),
             name: "t".into(),

@@ -69,6 +69,10 @@ pub struct ConvergenceArgs {
     /// rather than SGs by Eq. 12.
     #[arg(long)]
     pub asg_lobes: bool,
+    /// `lobe-aware` and `normal-aware` trace indirect light at every N-th pixel and upsample
+    /// it (Tokuyoshi's Sec. 5; at most 8).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=crate::methods::lobe_aware::options::MAX_UPSAMPLE_FACTOR as i64))]
+    pub upsample: Option<u32>,
     /// Leave out of the errors the pixels whose reference exceeds this in some channel, and
     /// their 8 neighbours (a light in view and its edge), as bench/race.py does.
     #[arg(long)]
@@ -459,6 +463,7 @@ fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
         shadow_profile_sigma: a.shadow_profile_sigma,
         flip_maps: a.flip_maps,
         asg_lobes: a.asg_lobes,
+        upsample: a.upsample,
         exclude_above: a.exclude_above,
         out: a.out.clone(),
         name: a.name.clone().unwrap_or_else(|| if q { "quick".into() } else { "full".into() }),

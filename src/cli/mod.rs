@@ -161,6 +161,10 @@ pub struct RenderArgs {
     /// Shade every sample at its pixel's centre (no antialiasing), as the AAF papers do.
     #[arg(long)]
     pub pixel_centers: bool,
+    /// lobe-aware and normal-aware: trace indirect light at every N-th pixel (2: half
+    /// resolution, 4: quarter; at most 8) and upsample it (Tokuyoshi 2015, Sec. 5).
+    #[arg(long)]
+    pub upsample: Option<u32>,
     /// Render ambient occlusion (the open fraction of each visible point's hemisphere)
     /// instead of light.
     #[arg(long)]

@@ -90,6 +90,7 @@ pub fn build_request(args: &RenderArgs, source: SceneSource) -> anyhow::Result<p
             ambient_occlusion: args.ao,
             pixel_centers: args.pixel_centers,
             ambient_occlusion_distance: args.ao_distance.unwrap_or(0.0),
+            upsample_factor: args.upsample.unwrap_or(0),
         }),
         seed: args.seed,
         // Everything the files need, losslessly.

@@ -94,6 +94,9 @@ struct PixelSums {
     direct: [f64; 3],
     diffuse: ComponentSums,
     glossy: ComponentSums,
+    /// Sums over every camera sample of the first hit's kd and ks (0 where it is back-facing
+    /// or missed): the reflectance of a pixel whose light is upsampled (`Upsampling`).
+    reflectance: [[f64; 3]; 2],
     /// Nearest and farthest reflector hit by the initial cosine rays (internal units).
     z_min: f32,
     z_max: f32,
@@ -106,6 +109,7 @@ impl Default for PixelSums {
             direct: [0.0; 3],
             diffuse: ComponentSums::default(),
             glossy: ComponentSums::default(),
+            reflectance: [[0.0; 3]; 2],
             z_min: f32::INFINITY,
             z_max: 0.0,
         }
@@ -155,6 +159,9 @@ pub struct IndirectStrategy {
     /// modes; built once per render.
     guides: Vec<Vec<Guide>>,
     lobe_opts: LobeAwareOptions,
+    /// Tokuyoshi's joint upsampling while its passes last (None without it, and from the
+    /// first pass that traces every pixel on).
+    upsampling: Option<tokuyoshi::Upsampling>,
     /// Projected pixel size per pixel.
     d: Vec<f64>,
     seed: u64,
@@ -183,6 +190,7 @@ impl IndirectStrategy {
             sums: Vec::new(),
             guides: Vec::new(),
             lobe_opts: job.lobe,
+            upsampling: None,
             d: Vec::new(),
             seed: hash_words(&[job.seed, STREAM]),
             rays: 0,
@@ -220,11 +228,17 @@ impl IndirectStrategy {
         // The surface is the filter's own work: it counts in the method's seconds.
         let t = Instant::now();
         if self.mode.tokuyoshi() {
+            let kappa = self.lobe_opts.kappa(ctx.job.bounces);
             self.guides = self
                 .parts()
                 .iter()
-                .map(|&part| tokuyoshi::guides(ctx, &g, part == Part::Glossy, &self.lobe_opts))
+                .map(|&part| tokuyoshi::guides(ctx, &g, part == Part::Glossy, &self.lobe_opts, kappa))
                 .collect();
+            if self.lobe_opts.upsample.factor > 1 {
+                let u = tokuyoshi::Upsampling::new(ctx, &g, self.parts(), self.similarity(), &self.lobe_opts);
+                tracing::debug!(factor = self.lobe_opts.upsample.factor, rerendered = u.rerendered, "upsampling");
+                self.upsampling = Some(u);
+            }
         }
         self.surface = (self.mode != FilterMode::Adaptive && !self.mode.tokuyoshi()).then(|| {
             FilterSurface::new(g.pixels.len(), self.width, &self.opts.filter, |p| {
@@ -253,11 +267,22 @@ impl IndirectStrategy {
         Some(Reflectors { z_min, z_max: (s.z_max as f64).max(z_min), omega_h, d: self.d[p] })
     }
 
+    /// Samples per pixel after pass `pass` when every pixel has the same (the preview's, then
+    /// the initial samples, doubling from pass 2 on).
+    fn uniform_count(&self, pass: u32) -> u32 {
+        let initial = self.opts.initial_samples.max(1);
+        match pass {
+            0 => self.opts.preview_samples.clamp(1, initial),
+            1 => initial,
+            _ => initial.saturating_mul(1u32 << (pass - 1).min(20)),
+        }
+    }
+
     /// Samples each pixel should have of each component after pass `pass`: (diffuse, glossy).
     fn targets(&self, scene: &Scene, pass: u32) -> Vec<(u32, u32)> {
         let initial = self.opts.initial_samples.max(1);
         if pass <= 1 {
-            let n = if pass == 0 { self.opts.preview_samples.clamp(1, initial) } else { initial };
+            let n = self.uniform_count(pass);
             return vec![(n, if self.glossy { n } else { 0 }); self.sums.len()];
         }
         let mu = self.mu(pass);
@@ -270,7 +295,7 @@ impl IndirectStrategy {
                 let count = |part: Part| -> u32 {
                     let have = part.of(s).n;
                     if self.mode.uniform_samples() {
-                        return initial.saturating_mul(1u32 << (pass - 1).min(20)).max(have);
+                        return self.uniform_count(pass).max(have);
                     }
                     let Some(r) = self.reflectors(scene, p, part) else { return floor.max(have) };
                     let c = &self.opts.constants;
@@ -299,8 +324,32 @@ impl IndirectStrategy {
             .collect()
     }
 
-    /// Traces the samples each pixel still needs to reach `targets`.
-    fn trace(&mut self, ctx: &PassContext, targets: &[(u32, u32)], record_z: bool) -> Result<bool, RenderError> {
+    /// While upsampling, keeps the indirect targets of the pixels that trace light and returns
+    /// the camera samples every pixel takes (direct light only at the others); 0 otherwise.
+    /// The first pass that reaches the full-resolution count ends the upsampling for good.
+    fn upsample_targets(&mut self, pass: u32, targets: &mut [(u32, u32)]) -> u32 {
+        let count = self.uniform_count(pass);
+        if !self.lobe_opts.upsample.active(count) {
+            self.upsampling = None;
+        }
+        let Some(u) = &self.upsampling else { return 0 };
+        for (t, &traced) in targets.iter_mut().zip(&u.traced) {
+            if !traced {
+                *t = (0, 0);
+            }
+        }
+        count
+    }
+
+    /// Traces the samples each pixel still needs to reach `targets`, and at least `taken`
+    /// camera samples per pixel.
+    fn trace(
+        &mut self,
+        ctx: &PassContext,
+        targets: &[(u32, u32)],
+        taken: u32,
+        record_z: bool,
+    ) -> Result<bool, RenderError> {
         let (scene, job) = (ctx.scene, ctx.job);
         let w = self.width;
         let (seed, owns_direct) = (self.seed, self.owns_direct);
@@ -316,12 +365,13 @@ impl IndirectStrategy {
                         return Tally { rays, dropped, complete: false };
                     }
                     // With pixel centres, the pass's samples share one camera ray.
-                    let centre = (job.pixel_centers && (px.diffuse.n < nd || px.glossy.n < ns)).then(|| {
+                    let more = |px: &PixelSums| px.taken < taken || px.diffuse.n < nd || px.glossy.n < ns;
+                    let centre = (job.pixel_centers && more(px)).then(|| {
                         rays += 1;
                         let dir = job.view.direction(x as f32 + 0.5, y as f32 + 0.5);
                         (dir, scene.intersect(job.view.position, dir, 0.0))
                     });
-                    while px.diffuse.n < nd || px.glossy.n < ns {
+                    while more(px) {
                         let mut sampler = PixelSampler::new(seed, (y * w + x) as u32, px.taken);
                         px.taken += 1;
                         let want = (px.diffuse.n < nd, px.glossy.n < ns);
@@ -377,11 +427,17 @@ impl IndirectStrategy {
                         })
                         .collect()
                 });
+            // The unfiltered light, upsampled where the light was (only the upsampled pixels'
+            // entries change).
+            let mut raw_light = light.clone();
+            let traced = |p: usize| self.upsampling.as_ref().is_none_or(|u| u.traced[p]);
             if self.mode.tokuyoshi() {
                 let initial = self.opts.initial_samples.max(1) as f64;
                 let o = &self.lobe_opts;
-                let sigma = |p: usize| o.sigma_px(at(p).n as f64, initial);
-                self.filter_tokuyoshi(part, sigma, &mut light, &mut part_width, &mut width_px);
+                // An upsampled pixel's kernel is that of its sites, which have its samples.
+                let n = |p: usize| if traced(p) { at(p).n } else { self.sums[p].taken };
+                let sigma = |p: usize| o.sigma_px(n(p) as f64, initial);
+                self.filter_tokuyoshi(part, sigma, &mut light, &mut raw_light, &mut part_width, &mut width_px);
             } else if let (Some(surface), Some(kernels)) = (&self.surface, &kernels) {
                 part_width.par_iter_mut().zip(width_px.par_iter_mut()).zip(kernels).for_each(|((pw, wp), k)| {
                     if k.beta > 0.0 && k.d > 0.0 {
@@ -391,7 +447,17 @@ impl IndirectStrategy {
                 });
                 surface.filter(kernels, &mut light);
             }
+            let which = if part == Part::Glossy { 1 } else { 0 };
             color.par_iter_mut().zip(unfiltered.par_iter_mut()).enumerate().for_each(|(p, (color, unfiltered))| {
+                if !traced(p) {
+                    // Upsampled: the light of the sites times the pixel's own reflectance.
+                    let k = mean(self.sums[p].reflectance[which], self.sums[p].taken);
+                    for c in 0..3 {
+                        color[c] += k[c] * light[p][c];
+                        unfiltered[c] += k[c] * raw_light[p][c];
+                    }
+                    return;
+                }
                 let s = at(p);
                 let (k, raw, prod) = (mean(s.reflectance, s.n), light_mean(p), mean(s.product, s.n));
                 for c in 0..3 {
@@ -434,10 +500,11 @@ impl Strategy for IndirectStrategy {
             self.setup(ctx);
         }
         let t = Instant::now();
-        let targets = self.targets(ctx.scene, ctx.pass);
+        let mut targets = self.targets(ctx.scene, ctx.pass);
+        let taken = self.upsample_targets(ctx.pass, &mut targets);
         self.method_seconds += t.elapsed().as_secs_f64();
         // The initial samples (the preview's and pass 1's) record the reflector distances.
-        let complete = self.trace(ctx, &targets, ctx.pass <= 1)?;
+        let complete = self.trace(ctx, &targets, taken, ctx.pass <= 1)?;
         let t = Instant::now();
         let mut frame = self.frame(ctx.scene, ctx.pass);
         self.method_seconds += t.elapsed().as_secs_f64();
@@ -509,6 +576,12 @@ impl Sample<'_> {
         }
         let brdf = scene.materials[hit.material as usize].brdf(hit.uv);
         let front = hit.ns.dot(wo) > 0.0;
+        if front {
+            for c in 0..3 {
+                px.reflectance[0][c] += brdf.kd[c] as f64;
+                px.reflectance[1][c] += brdf.ks[c] as f64;
+            }
+        }
         let mut diffuse = None;
         if self.want.0 && brdf.kd != Vec3::ZERO && front {
             let wi = to_world(hit.ns, cosine_hemisphere(u_d));

@@ -156,9 +156,10 @@ impl AutoStrategy {
                 .map(|(guide, s)| PackedGuide::new(&Guide { valid: guide.valid && !s.emitter, ..*guide }))
                 .collect()
         };
-        self.diffuse_guides = packed(tokuyoshi::guides(ctx, &g, false, &ctx.job.lobe));
+        let kappa = ctx.job.lobe.kappa(ctx.job.bounces);
+        self.diffuse_guides = packed(tokuyoshi::guides(ctx, &g, false, &ctx.job.lobe, kappa));
         if self.glossy {
-            self.glossy_guides = packed(tokuyoshi::guides(ctx, &g, true, &ctx.job.lobe));
+            self.glossy_guides = packed(tokuyoshi::guides(ctx, &g, true, &ctx.job.lobe, kappa));
         }
         self.widths = Some(Widths::new(ctx, &g));
         self.method_seconds += t.elapsed().as_secs_f64();

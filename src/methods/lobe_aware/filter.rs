@@ -76,7 +76,8 @@ pub struct Filtered {
 }
 
 impl Similarity {
-    fn ln_weight(&self, c: &Guide, j: &Guide) -> f64 {
+    /// ln of the directional weight of neighbour `j` for centre `c`.
+    pub(crate) fn ln_weight(&self, c: &Guide, j: &Guide) -> f64 {
         match *self {
             Similarity::Lobe { beta } => match (&c.asg, &j.asg) {
                 (Some(a), Some(b)) => a.ln_weight(b, beta),

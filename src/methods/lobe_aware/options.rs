@@ -83,6 +83,43 @@ pub struct LobeAwareOptions {
     pub max_radius: usize,
     /// The full 2-D gather of Eq. 1 or its separable approximation (the default).
     pub gather: Gather,
+    /// Indirect light traced at reduced resolution and upsampled (Sec. 5; off by default).
+    pub upsample: UpsampleOptions,
+}
+
+/// Joint upsampling (Sec. 5) and the adaptive re-render (Fig. 16) of the lobe- and
+/// normal-aware methods: indirect light traced at the sites of a grid every `factor` pixels,
+/// filtered there, and upsampled to the other pixels; pixels whose upsampling weights sum below
+/// `rerender_below` trace their own. Every pixel still traces its own camera rays and direct
+/// light. Passes whose samples per pixel reach `full_resolution_spp` trace indirect light at
+/// every pixel, so that the stream converges to the unfiltered Monte Carlo mean.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UpsampleOptions {
+    /// 1 (no upsampling), 2 (half resolution) or 4 (quarter), up to `MAX_UPSAMPLE_FACTOR`.
+    pub factor: u32,
+    /// The first pass whose samples per pixel reach this traces every pixel.
+    pub full_resolution_spp: u32,
+    /// Fig. 16's threshold on the weight sum.
+    pub rerender_below: f64,
+    /// kappa (Eq. 9) of the upsampling weights' lobes (Sec. 5: 100).
+    pub kappa: f64,
+}
+
+/// The largest upsampling factor: an 8 x 8 block is already coarser than the filter's kernel.
+pub const MAX_UPSAMPLE_FACTOR: u32 = 8;
+
+impl Default for UpsampleOptions {
+    fn default() -> Self {
+        UpsampleOptions { factor: 1, full_resolution_spp: 256, rerender_below: 0.25, kappa: 100.0 }
+    }
+}
+
+impl UpsampleOptions {
+    /// Whether a pass that brings every pixel to `spp` samples traces indirect light at the
+    /// sites only.
+    pub fn active(&self, spp: u32) -> bool {
+        self.factor > 1 && spp < self.full_resolution_spp
+    }
 }
 
 impl Default for LobeAwareOptions {
@@ -95,6 +132,7 @@ impl Default for LobeAwareOptions {
             refine_exponent: 1.0 / 6.0,
             max_radius: 16,
             gather: Gather::Separable,
+            upsample: UpsampleOptions::default(),
         }
     }
 }

@@ -119,3 +119,73 @@ fn asg_lobes_filter_as_well_as_sg_lobes() {
     assert!(asg < 0.6 * raw, "asg {asg} vs unfiltered {raw}");
     assert!(asg < 1.1 * sg, "asg {asg} vs sg {sg}");
 }
+
+/// Joint upsampling (Sec. 5) at half resolution on the glossy Cornell box: indirect light is
+/// traced at the grid's sites and at the pixels Fig. 16 re-renders, and nowhere else (each
+/// component's spp map says so); every pixel still takes its camera samples; the frame keeps
+/// the energy of plain path tracing; it costs fewer rays than filtering at full resolution; and
+/// it does not depend on the thread count.
+#[test]
+fn upsampled_passes_trace_indirect_light_at_the_sites_and_the_rerendered_pixels() {
+    let (w, h) = (32usize, 32usize);
+    let s = builtin("cornell-glossy", w as u32, h as u32);
+    let reference = reference(s.clone(), 1, 2048.0);
+    for method in [Method::LobeAware, Method::NormalAware] {
+        let mut up = job(s.clone(), method, 3, 5, 1);
+        up.lobe.upsample.factor = 2;
+        let last = frames(&up).pop().unwrap();
+        let full = frames(&job(s.clone(), method, 3, 5, 1)).pop().unwrap();
+        assert!(last.spp.iter().all(|&n| n == 64.0), "{method:?}: every pixel takes the pass's camera samples");
+        let diffuse = &last.components[0].spp;
+        let (mut sites, mut rerendered, mut upsampled) = (0, 0, 0);
+        for (p, &n) in diffuse.iter().enumerate() {
+            let site = (p % w).is_multiple_of(2) && (p / w).is_multiple_of(2);
+            assert!(n == 0.0 || n == 64.0, "{method:?}: pixel {p} has {n} indirect samples");
+            match (site, n > 0.0) {
+                (true, true) => sites += 1,
+                (false, true) => rerendered += 1,
+                (false, false) => upsampled += 1,
+                (true, false) => {}
+            }
+        }
+        assert!(sites > 200 && upsampled > 400, "{method:?}: {sites} sites, {upsampled} upsampled");
+        // The box's edges and its blocks' silhouettes are re-rendered, not the whole image.
+        assert!(rerendered > 10 && rerendered < upsampled / 2, "{method:?}: {rerendered} re-rendered");
+        let (m, r) = (mean(&last.color), mean(&reference.color));
+        assert!((m / r - 1.0).abs() < 0.03, "{method:?}: mean {m} vs {r}");
+        assert!(
+            (last.stats.rays_traced as f64) < 0.85 * full.stats.rays_traced as f64,
+            "{method:?}: {} rays upsampled, {} at full resolution",
+            last.stats.rays_traced,
+            full.stats.rays_traced
+        );
+        let e = rmse(&last.color, &reference.color);
+        assert!(e < rmse(last.unfiltered_color(), &reference.color), "{method:?}: filtered {e}");
+        let one =
+            rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| frames(&up)).pop().unwrap();
+        assert_eq!(one.color, last.color, "{method:?}");
+    }
+}
+
+/// Consistency with upsampling: the first pass whose samples reach `full_resolution_spp`
+/// traces every pixel, and from there the stream converges to the plain Monte Carlo mean as
+/// without it (a kernel narrowing as 1 / n, as above).
+#[test]
+fn the_upsampled_stream_returns_to_full_resolution_and_converges() {
+    let s = builtin("cornell-glossy", 12, 9);
+    for factor in [2, 4] {
+        let mut j = job(s.clone(), Method::LobeAware, 6, 3, 1);
+        j.indirect.initial_samples = 4;
+        j.lobe.refine_exponent = 1.0;
+        j.lobe.upsample.factor = factor;
+        j.lobe.upsample.full_resolution_spp = 16;
+        let f = frames(&j);
+        let indirect = |fr: &Frame| fr.components[0].spp.iter().filter(|&&n| n > 0.0).count();
+        // Passes of 4 and 8 samples upsample; 16 and on trace every pixel that reflects light.
+        assert!(indirect(&f[0]) < indirect(&f[2]), "factor {factor}");
+        assert_eq!(indirect(&f[2]), indirect(f.last().unwrap()));
+        let last = f.last().unwrap();
+        let e = rmse(&last.color, last.unfiltered_color());
+        assert!(e < 0.01 * mean(&last.color), "factor {factor}: rmse {e}");
+    }
+}
