@@ -159,8 +159,8 @@ pub struct IndirectStrategy {
     /// modes; built once per render.
     guides: Vec<Vec<Guide>>,
     lobe_opts: LobeAwareOptions,
-    /// Tokuyoshi's joint upsampling while its passes last (None without it, and from the
-    /// first pass that traces every pixel on).
+    /// Tokuyoshi's joint upsampling while its passes last (None without it, and after the
+    /// first complete pass that traces every pixel).
     upsampling: Option<tokuyoshi::Upsampling>,
     /// Projected pixel size per pixel.
     d: Vec<f64>,
@@ -326,13 +326,11 @@ impl IndirectStrategy {
 
     /// While upsampling, keeps the indirect targets of the pixels that trace light and returns
     /// the camera samples every pixel takes (direct light only at the others); 0 otherwise.
-    /// The first pass that reaches the full-resolution count ends the upsampling for good.
-    fn upsample_targets(&mut self, pass: u32, targets: &mut [(u32, u32)]) -> u32 {
+    /// The first pass that reaches the full-resolution count traces every pixel; once one such
+    /// pass is complete, upsampling ends for good (`run_pass`).
+    fn upsample_targets(&self, pass: u32, targets: &mut [(u32, u32)]) -> u32 {
         let count = self.uniform_count(pass);
-        if !self.lobe_opts.upsample.active(count) {
-            self.upsampling = None;
-        }
-        let Some(u) = &self.upsampling else { return 0 };
+        let Some(u) = self.upsampling.as_ref().filter(|_| self.lobe_opts.upsample.active(count)) else { return 0 };
         for (t, &traced) in targets.iter_mut().zip(&u.traced) {
             if !traced {
                 *t = (0, 0);
@@ -430,7 +428,8 @@ impl IndirectStrategy {
             // The unfiltered light, upsampled where the light was (only the upsampled pixels'
             // entries change).
             let mut raw_light = light.clone();
-            let traced = |p: usize| self.upsampling.as_ref().is_none_or(|u| u.traced[p]);
+            // A pixel without samples of the part is upsampled (only while upsampling).
+            let traced = |p: usize| self.upsampling.is_none() || at(p).n > 0;
             if self.mode.tokuyoshi() {
                 let initial = self.opts.initial_samples.max(1) as f64;
                 let o = &self.lobe_opts;
@@ -508,6 +507,10 @@ impl Strategy for IndirectStrategy {
         let t = Instant::now();
         let mut frame = self.frame(ctx.scene, ctx.pass);
         self.method_seconds += t.elapsed().as_secs_f64();
+        if complete && taken == 0 {
+            // Every pixel has its own indirect samples now: nothing is upsampled again.
+            self.upsampling = None;
+        }
         frame.stats.method_seconds = self.method_seconds;
         Ok(PassOutput { frame, complete })
     }

@@ -100,10 +100,11 @@ impl IndirectStrategy {
     /// Filters the untextured light of `part` with Tokuyoshi's gather (Eq. 1), pixel p's screen
     /// kernel `sigma(p)` pixels wide (narrowing with the samples for the lobe- and
     /// normal-aware methods); pixels whose samples found no reflecting
-    /// surface stay out. While upsampling, the gather runs over the pixels that traced light
-    /// (the full 2-D one: the separable one would miss the rows without sites), and the others
-    /// get the filtered light of their sites, upsampled; `raw` gets the unfiltered light
-    /// upsampled the same way (the stream's unfiltered layer).
+    /// surface stay out. While upsampling (and in the pass that ends it, if the deadline cuts
+    /// it), the pixels without samples of the part get the filtered light of their sites,
+    /// upsampled, and the gather is the full 2-D one (the separable one would miss the rows
+    /// without sites); `raw` gets the unfiltered light upsampled the same way (the stream's
+    /// unfiltered layer).
     pub(super) fn filter_tokuyoshi(
         &self,
         part: Part,
@@ -124,19 +125,21 @@ impl IndirectStrategy {
                 Guide { valid, sigma_px: if valid { sigma(p) } else { 0.0 }, ..*g }
             })
             .collect();
+        let untraced = |p: usize| part.of(&self.sums[p]).n == 0;
+        let sparse = self.upsampling.is_some() && (0..guides.len()).any(|p| self.guides[index][p].valid && untraced(p));
         let similarity = self.similarity();
         let opts = BilateralOptions {
             similarity,
             sigma_z2_relative: o.weights.sigma_z2_relative,
             max_radius: o.max_radius,
-            gather: if self.upsampling.is_some() { Gather::Full } else { o.gather },
+            gather: if sparse { Gather::Full } else { o.gather },
         };
         *light = filter::filter(&guides, self.width, light, &opts).values;
         for ((pw, wp), g) in part_width.iter_mut().zip(width_px.iter_mut()).zip(&guides) {
             *pw = g.sigma_px as f32;
             *wp = wp.max(*pw);
         }
-        let Some(u) = &self.upsampling else { return };
+        let Some(u) = self.upsampling.as_ref().filter(|_| sparse) else { return };
         // Sources that found light this time (a site at a light's edge may have none).
         let sources: Vec<bool> =
             u.sources[index].iter().zip(&self.sums).map(|(&s, sums)| s && part.of(sums).surface > 0).collect();
@@ -146,7 +149,7 @@ impl IndirectStrategy {
             || upsample(&u.guides[index], &sources, raw, &u.grid, &weights),
         );
         for p in 0..light.len() {
-            if !u.traced[p] {
+            if untraced(p) {
                 light[p] = up[p].unwrap_or([0.0; 3]);
                 raw[p] = up_raw[p].unwrap_or([0.0; 3]);
                 if up[p].is_some() {

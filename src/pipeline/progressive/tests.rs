@@ -214,7 +214,8 @@ fn image_mean(f: &Frame) -> f64 {
 /// Every frame estimates the whole image, whatever the budget: one that ends inside pass 0
 /// (pass 0 always completes) and one that ends inside a later pass (every pixel keeps at least
 /// the samples it had), for every method, on two built-in scenes. The frame's mean is within
-/// 3% of a high-spp reference's.
+/// 3% of a high-spp reference's. `lobe-aware` also runs upsampled, its later pass the one that
+/// returns to full resolution (whose cut leaves pixels with no indirect samples of their own).
 #[test]
 fn frames_cut_by_the_budget_are_complete_for_every_method() {
     for (name, bounces) in [("cornell", 1), ("grids", 0)] {
@@ -222,9 +223,12 @@ fn frames_cut_by_the_budget_are_complete_for_every_method() {
         let mut rj = job(scene.clone(), Halt::passes(64));
         (rj.bounces, rj.seed, rj.halt.max_mean_spp) = (bounces, 99, 128.0);
         let reference = image_mean(frames(&rj).last().unwrap());
-        for method in Method::ALL {
+        for (method, upsample) in Method::ALL.iter().map(|&m| (m, 1)).chain([(Method::LobeAware, 2)]) {
             let mut j = job(scene.clone(), Halt::passes(64));
             (j.method, j.bounces) = (method, bounces);
+            j.lobe.upsample.factor = upsample;
+            // Pass 2 brings every pixel to 32 samples.
+            j.lobe.upsample.full_resolution_spp = 32;
             // Inside pass 0: the budget is over before the render starts.
             j.halt.time_budget = Some(Duration::ZERO);
             let f = frames(&j);
