@@ -134,7 +134,9 @@ impl IndirectStrategy {
             max_radius: o.max_radius,
             gather: if sparse { Gather::Full } else { o.gather },
         };
-        *light = filter::filter(&guides, self.width, light, &opts).values;
+        // Each pixel's light is the mean over its samples that found a reflecting surface.
+        let counts: Vec<f64> = self.sums.par_iter().map(|s| part.of(s).surface as f64).collect();
+        *light = filter::filter_counted(&guides, self.width, light, Some(&counts), &opts).values;
         for ((pw, wp), g) in part_width.iter_mut().zip(width_px.iter_mut()).zip(&guides) {
             *pw = g.sigma_px as f32;
             *wp = wp.max(*pw);

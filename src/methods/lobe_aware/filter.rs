@@ -99,7 +99,24 @@ fn radius(g: &Guide, o: &BilateralOptions) -> usize {
 
 /// Filters `values` (row-major, `width` wide, one per guide).
 pub fn filter(guides: &[Guide], width: usize, values: &[[f64; 3]], o: &BilateralOptions) -> Filtered {
+    filter_counted(guides, width, values, None, o)
+}
+
+/// `filter` of values that are means of `counts` samples each: neighbour j's weight is
+/// multiplied by `counts[j] / counts[i]`, so that Eq. 1 averages samples rather than pixels.
+/// Where every count is equal this is `filter` exactly; where they differ (a pass the deadline
+/// cut leaves some pixels with twice, or after the preview sixteen times, the samples of
+/// others) a pixel of few samples takes its value mostly from better-sampled neighbours instead
+/// of passing its noise on.
+pub fn filter_counted(
+    guides: &[Guide],
+    width: usize,
+    values: &[[f64; 3]],
+    counts: Option<&[f64]>,
+    o: &BilateralOptions,
+) -> Filtered {
     assert_eq!(guides.len(), values.len(), "one guide per value");
+    assert!(counts.is_none_or(|c| c.len() == values.len()), "one count per value");
     let height = guides.len().checked_div(width).unwrap_or(0);
     let mut non_finite = 0;
     let clean: Vec<[f64; 3]> = values
@@ -113,7 +130,7 @@ pub fn filter(guides: &[Guide], width: usize, values: &[[f64; 3]], o: &Bilateral
             }
         })
         .collect();
-    let image = Image { guides, width, height, o };
+    let image = Image { guides, width, height, o, counts };
     let (values, weight_sums) = match o.gather {
         Gather::Full => image.pass(&clean, |x, y, r| image.square(x, y, r)),
         Gather::Separable => {
@@ -129,6 +146,7 @@ struct Image<'a> {
     width: usize,
     height: usize,
     o: &'a BilateralOptions,
+    counts: Option<&'a [f64]>,
 }
 
 impl Image<'_> {
@@ -160,6 +178,8 @@ impl Image<'_> {
             return (values[i], if c.valid { 1.0 } else { 0.0 });
         }
         let inv_2s2 = 1.0 / (2.0 * c.sigma_px * c.sigma_px);
+        // Relative to the centre's count, so that equal counts multiply by exactly 1.
+        let relative = |j: usize| self.counts.map_or(1.0, |n| if n[i] > 0.0 { n[j] / n[i] } else { 1.0 });
         let sigma_z2 = self.o.sigma_z2_relative * c.depth * c.depth;
         let (mut sum, mut wsum) = ([0.0f64; 3], 0.0f64);
         for (j, d2) in neighbours(x, y, r) {
@@ -171,6 +191,7 @@ impl Image<'_> {
                 1.0
             } else {
                 (-d2 * inv_2s2 + ln_depth_weight(c.depth, g.depth, sigma_z2) + self.o.similarity.ln_weight(c, g)).exp()
+                    * relative(j)
             };
             if w > 0.0 {
                 for k in 0..3 {
@@ -301,6 +322,37 @@ mod tests {
         g[3].sigma_px = 0.0;
         let kept = filter(&g, w, &values, &opts(Similarity::Normal { sigma_n2: 0.01 }));
         assert_eq!(kept.values[3], values[3]);
+    }
+
+    /// Sample counts weigh the means: equal counts change nothing, bit for bit; a pixel of one
+    /// sample among pixels of sixteen takes 16/17 of a neighbour's value where the two have
+    /// equal weights, while without counts it keeps half its own.
+    #[test]
+    fn counts_weigh_the_pixels_means_by_their_samples() {
+        let (w, h) = (9, 1);
+        let guides = flat(w, h, 0.6);
+        let values: Vec<[f64; 3]> = (0..w).map(|x| [if x == 4 { 17.0 } else { 0.0 }, x as f64, 1.0]).collect();
+        for gather in [Gather::Full, Gather::Separable] {
+            let o = BilateralOptions { gather, ..opts(Similarity::Lobe { beta: 20.0 }) };
+            let equal = vec![16.0; w];
+            let plain = filter(&guides, w, &values, &o);
+            let same = filter_counted(&guides, w, &values, Some(&equal), &o);
+            assert_eq!(plain.values, same.values, "{gather:?}");
+            let mut counts = equal.clone();
+            counts[4] = 1.0;
+            let counted = filter_counted(&guides, w, &values, Some(&counts), &o);
+            // Pixel 4's neighbours at distance 1 weigh exp(-1 / (2 0.36)) = 0.249 each; at
+            // distance 2, 0.004.
+            let n = |d: f64| (-d * d / 0.72f64).exp();
+            let (own, near) = (1.0, 16.0 * (2.0 * n(1.0) + 2.0 * n(2.0)));
+            let want = 17.0 * own / (own + near);
+            assert!((counted.values[4][0] - want).abs() < 1e-9, "{gather:?}: {} vs {want}", counted.values[4][0]);
+            let uncounted = 17.0 / (1.0 + 2.0 * n(1.0) + 2.0 * n(2.0));
+            assert!((plain.values[4][0] - uncounted).abs() < 1e-9, "{gather:?}: {}", plain.values[4][0]);
+            // Its neighbour of sixteen samples gives it a sixteenth of the weight.
+            let want3 = 17.0 * n(1.0) / 16.0 / (1.0 + n(1.0) + n(1.0) / 16.0 + 2.0 * n(2.0));
+            assert!((counted.values[3][0] - want3).abs() < 1e-9, "{gather:?}: {} vs {want3}", counted.values[3][0]);
+        }
     }
 
     #[test]
