@@ -46,6 +46,17 @@ pub struct Tally {
     pub complete: bool,
 }
 
+/// The rows of an image of `height` rows in the order a pass traces them: the van der Corput
+/// order of their indices (0, h/2, h/4, 3h/4, ...), so that a pass the deadline cuts leaves
+/// the rows it reached spread over the image, every unreached row close to reached ones, rather
+/// than a band of rows with the previous pass's samples only. Threads split the list into
+/// contiguous parts, each again spread over the image.
+pub fn interleaved_rows(height: usize) -> Vec<usize> {
+    let mut rows: Vec<usize> = (0..height).collect();
+    rows.sort_by_key(|&y| (y as u64).reverse_bits());
+    rows
+}
+
 impl Tally {
     /// A pass's outcome from its parts: adds their rays and dropped samples to the running
     /// counts and says whether every pixel got its samples; a cancellation is an error.
@@ -171,5 +182,29 @@ impl Film {
             return 0.0;
         }
         self.pixels.iter().map(|p| p.n as f64).sum::<f64>() / self.pixels.len() as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::interleaved_rows;
+
+    /// Every row once, and any prefix spread over the image: after k rows no gap between
+    /// reached rows (or to the image's ends) exceeds 2 h / k rows.
+    #[test]
+    fn interleaved_rows_are_a_permutation_whose_prefixes_spread() {
+        for h in [1usize, 2, 7, 240, 320, 1081] {
+            let rows = interleaved_rows(h);
+            let mut sorted = rows.clone();
+            sorted.sort_unstable();
+            assert_eq!(sorted, (0..h).collect::<Vec<_>>());
+            for k in [2usize, 5, 16, 100].into_iter().filter(|&k| k <= h) {
+                let mut reached = rows[..k].to_vec();
+                reached.sort_unstable();
+                let gaps = reached.windows(2).map(|p| p[1] - p[0]).chain([reached[0], h - 1 - reached[k - 1]]);
+                let widest = gaps.max().unwrap();
+                assert!(widest <= 2 * h / k + 1, "h {h}, first {k} rows: a gap of {widest}");
+            }
+        }
     }
 }

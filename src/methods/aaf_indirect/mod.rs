@@ -40,7 +40,7 @@ pub use options::IndirectOptions;
 use super::lobe_aware::filter::Guide;
 use super::lobe_aware::options::LobeAwareOptions;
 use super::mode::FilterMode;
-use crate::pipeline::film::{mean, Tally};
+use crate::pipeline::film::{interleaved_rows, mean, Tally};
 use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
 use crate::pipeline::strategy::{PassContext, PassOutput, Strategy};
@@ -267,10 +267,17 @@ impl IndirectStrategy {
         Some(Reflectors { z_min, z_max: (s.z_max as f64).max(z_min), omega_h, d: self.d[p] })
     }
 
-    /// Samples per pixel after pass `pass` when every pixel has the same (the preview's, then
-    /// the initial samples, doubling from pass 2 on).
+    /// Samples per pixel after pass `pass` when every pixel has the same: the preview's, then
+    /// the initial samples, doubling from pass 2 on; Tokuyoshi's modes, which need no initial
+    /// samples for an analysis, double from the preview on (1, 2, 4, ...), so that a pass the
+    /// deadline cuts leaves no pixel with much fewer samples than its neighbours (their direct
+    /// light is not filtered).
     fn uniform_count(&self, pass: u32) -> u32 {
         let initial = self.opts.initial_samples.max(1);
+        let preview = self.opts.preview_samples.clamp(1, initial);
+        if self.mode.tokuyoshi() {
+            return preview.saturating_mul(1u32 << pass.min(20));
+        }
         match pass {
             0 => self.opts.preview_samples.clamp(1, initial),
             1 => initial,
@@ -351,11 +358,17 @@ impl IndirectStrategy {
         let (scene, job) = (ctx.scene, ctx.job);
         let w = self.width;
         let (seed, owns_direct) = (self.seed, self.owns_direct);
-        let results: Vec<Tally> = self
-            .sums
-            .par_chunks_mut(w.max(1))
-            .zip(targets.par_chunks(w.max(1)))
-            .enumerate()
+        // Rows in interleaved order: a pass the deadline cuts leaves its reached rows spread
+        // out, and the counted gather fills the others from them.
+        let mut rows: Vec<_> = self.sums.chunks_mut(w.max(1)).zip(targets.chunks(w.max(1))).enumerate().collect();
+        let order = interleaved_rows(rows.len());
+        let mut rank = vec![0; rows.len()];
+        for (k, &y) in order.iter().enumerate() {
+            rank[y] = k;
+        }
+        rows.sort_by_key(|(y, _)| rank[*y]);
+        let results: Vec<Tally> = rows
+            .into_par_iter()
             .map(|(y, (row, want_row))| {
                 let (mut rays, mut dropped) = (0u64, 0u64);
                 for (x, (px, &(nd, ns))) in row.iter_mut().zip(want_row).enumerate() {
