@@ -53,8 +53,13 @@ pub struct Tally {
 /// contiguous parts, each again spread over the image.
 pub fn interleaved_rows(height: usize) -> Vec<usize> {
     let mut rows: Vec<usize> = (0..height).collect();
-    rows.sort_by_key(|&y| (y as u64).reverse_bits());
+    rows.sort_by_key(|&y| interleave_rank(y));
     rows
+}
+
+/// Row `y`'s place in `interleaved_rows`' order (sort by it).
+pub fn interleave_rank(y: usize) -> u64 {
+    (y as u64).reverse_bits()
 }
 
 impl Tally {

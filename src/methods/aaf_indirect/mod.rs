@@ -40,7 +40,7 @@ pub use options::IndirectOptions;
 use super::lobe_aware::filter::Guide;
 use super::lobe_aware::options::LobeAwareOptions;
 use super::mode::FilterMode;
-use crate::pipeline::film::{interleaved_rows, mean, Tally};
+use crate::pipeline::film::{interleave_rank, mean, Tally};
 use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
 use crate::pipeline::strategy::{PassContext, PassOutput, Strategy};
@@ -279,7 +279,7 @@ impl IndirectStrategy {
             return preview.saturating_mul(1u32 << pass.min(20));
         }
         match pass {
-            0 => self.opts.preview_samples.clamp(1, initial),
+            0 => preview,
             1 => initial,
             _ => initial.saturating_mul(1u32 << (pass - 1).min(20)),
         }
@@ -361,12 +361,7 @@ impl IndirectStrategy {
         // Rows in interleaved order: a pass the deadline cuts leaves its reached rows spread
         // out, and the counted gather fills the others from them.
         let mut rows: Vec<_> = self.sums.chunks_mut(w.max(1)).zip(targets.chunks(w.max(1))).enumerate().collect();
-        let order = interleaved_rows(rows.len());
-        let mut rank = vec![0; rows.len()];
-        for (k, &y) in order.iter().enumerate() {
-            rank[y] = k;
-        }
-        rows.sort_by_key(|(y, _)| rank[*y]);
+        rows.sort_by_key(|(y, _)| interleave_rank(*y));
         let results: Vec<Tally> = rows
             .into_par_iter()
             .map(|(y, (row, want_row))| {
@@ -438,9 +433,9 @@ impl IndirectStrategy {
                         })
                         .collect()
                 });
-            // The unfiltered light, upsampled where the light was (only the upsampled pixels'
-            // entries change).
-            let mut raw_light = light.clone();
+            // While upsampling: the unfiltered light, upsampled where the light was (only the
+            // upsampled pixels' entries change, and only they read it).
+            let mut raw_light = if self.upsampling.is_some() { light.clone() } else { Vec::new() };
             // A pixel without samples of the part is upsampled (only while upsampling).
             let traced = |p: usize| self.upsampling.is_none() || at(p).n > 0;
             if self.mode.tokuyoshi() {
