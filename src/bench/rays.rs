@@ -65,17 +65,17 @@ pub fn make_rays(scene: &Scene, spp: u32) -> [RaySet; 3] {
                 if matches!(scene.materials[hit.material as usize], Material::Emitter { .. }) {
                     continue;
                 }
-                let o = hit.p + hit.ng * Scene::ray_epsilon(hit.p);
+                let o = hit.spawn_origin();
                 let target = match scene.lights.first() {
                     Some(Light::Rect(r)) => r.point(s.next_2d()),
                     Some(Light::Point(p)) => p.position,
-                    None => o + hit.ng,
+                    None => hit.p + hit.ng,
                 };
-                let d = target - o;
-                let dist = d.length();
-                sets[1].origins.push(o);
-                sets[1].dirs.push(d / dist);
-                sets[1].tmax.push(dist - Scene::ray_epsilon(target));
+                if let Some((o, dir, tmax)) = hit.ray_to(target) {
+                    sets[1].origins.push(o);
+                    sets[1].dirs.push(dir);
+                    sets[1].tmax.push(tmax);
+                }
                 sets[2].origins.push(o);
                 sets[2].dirs.push(to_world(hit.ns, cosine_hemisphere(s.next_2d())));
                 sets[2].tmax.push(f32::INFINITY);

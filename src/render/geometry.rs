@@ -3,6 +3,7 @@
 //! The tree is built by obvhs. It is traced either as wedge's own wide BVH (`super::wide_bvh`, the
 //! default: 8 children per node on CPUs with AVX2, else 4) or as obvhs's compressed 8-wide BVH,
 //! kept so that the ray benchmark can compare them on the same rays.
+pub use super::wide_bvh::gamma;
 use super::wide_bvh::{LeafCost, WideBvh, Width};
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::{

@@ -69,7 +69,7 @@ pub fn light_sample_radiance(scene: &Scene, s: &Surface, wo: Vec3, brdf: &Brdf, 
     if f == Vec3::ZERO {
         return (Vec3::ZERO, 0);
     }
-    if scene.occluded(s.p, s.ng, ls.point) {
+    if scene.occluded(s, ls.point) {
         (Vec3::ZERO, 1)
     } else {
         (f * ls.weight * cos, 1)
@@ -139,8 +139,7 @@ pub fn occlusion_ray(scene: &Scene, s: &Surface, u: [f32; 2], max_distance: f32)
     if s.ng.dot(wi) <= 0.0 {
         return (Some(0.0), 0);
     }
-    let o = s.p + s.ng * Scene::ray_epsilon(s.p);
-    (scene.geometry.intersect(o, wi, 0.0, max_distance).map(|h| h.t), 1)
+    (scene.geometry.intersect(s.spawn_origin(), wi, 0.0, max_distance).map(|h| h.t), 1)
 }
 
 /// Radiance leaving the first hit `first` towards `wo` (emission, direct light of the lights
@@ -178,9 +177,8 @@ pub fn radiance_from(
         if throughput == Vec3::ZERO || !throughput.is_finite() {
             break;
         }
-        let o = s.p + s.ng * Scene::ray_epsilon(s.p);
         rays += 1;
-        let Some(next) = scene.intersect(o, b.wi, 0.0) else { break };
+        let Some(next) = scene.intersect(s.spawn_origin(), b.wi, 0.0) else { break };
         if matches!(scene.materials[next.material as usize], Material::Emitter { .. }) {
             break;
         }

@@ -654,8 +654,7 @@ pub(crate) fn incident(
     if hit.ng.dot(wi) <= 0.0 {
         return (Vec3::ZERO, None, 0);
     }
-    let o = hit.p + hit.ng * Scene::ray_epsilon(hit.p);
-    let Some(next) = scene.intersect(o, wi, 0.0) else { return (Vec3::ZERO, None, 1) };
+    let Some(next) = scene.intersect(hit.spawn_origin(), wi, 0.0) else { return (Vec3::ZERO, None, 1) };
     if matches!(scene.materials[next.material as usize], Material::Emitter { .. }) {
         return (Vec3::ZERO, Some(next.t), 1);
     }

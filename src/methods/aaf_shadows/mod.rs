@@ -781,9 +781,9 @@ impl OccluderRange {
     /// otherwise an any-hit query answers.
     pub(crate) fn visible(&mut self, scene: &Scene, hit: &Surface, y: Vec3, record: bool) -> bool {
         if !record {
-            return !scene.occluded(hit.p, hit.ng, y);
+            return !scene.occluded(hit, y);
         }
-        match occluder_slopes(scene, hit.p, hit.ng, y).0 {
+        match occluder_slopes(scene, hit, y).0 {
             Some((s1, s2)) => {
                 self.occluded = true;
                 self.s1 = self.s1.max(s1);
@@ -805,15 +805,10 @@ impl OccluderRange {
 /// ray, using the per-ray form s = t/(L - t) (methods.md §1.1). One traversal collects both
 /// ends of the occluded range, as the authors' any-hit shader did. Also returns the extra rays
 /// traced.
-pub(crate) fn occluder_slopes(scene: &Scene, p: Vec3, ng: Vec3, y: Vec3) -> (Option<(f64, f64)>, u64) {
-    let o = p + ng * Scene::ray_epsilon(p);
-    let d = y - o;
-    let l = d.length();
-    let (eps_o, eps_y) = (Scene::ray_epsilon(o), Scene::ray_epsilon(y));
-    if !(l > eps_o + eps_y) {
-        return (None, 0);
-    }
-    let Some((near_t, far_t)) = scene.geometry.hit_range(o, d / l, 0.0, l - eps_y) else { return (None, 0) };
+pub(crate) fn occluder_slopes(scene: &Scene, hit: &Surface, y: Vec3) -> (Option<(f64, f64)>, u64) {
+    let Some((o, dir, tmax)) = hit.ray_to(y) else { return (None, 0) };
+    let l = (y - o).length();
+    let Some((near_t, far_t)) = scene.geometry.hit_range(o, dir, 0.0, tmax) else { return (None, 0) };
     let (l, near_t, far_t) = (l as f64, near_t as f64, far_t as f64);
     (Some((slope(far_t, l), slope(near_t, l))), 0)
 }

@@ -13,6 +13,7 @@ mod node;
 mod refit;
 mod simd;
 mod tri4;
+pub use tri4::gamma;
 
 use glam::Vec3;
 #[cfg(target_arch = "x86_64")]

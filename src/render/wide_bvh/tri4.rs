@@ -138,8 +138,52 @@ impl Tri4 {
             return BlockHits { mask, t: [f32::INFINITY; 4], u, v };
         }
         let inv = F4::splat(1.0).div(abs_det);
-        BlockHits { mask, t: t.mul(inv).to_array(), u: u.mul(inv), v: v.mul(inv) }
+        // A hit nearer than the test's own rounding error could be the surface the ray left (or
+        // a coplanar neighbour): pbrt-v4's conservative bound on the error of t (Pharr, Jakob
+        // and Humphreys, "Physically Based Rendering", 4th ed., Sec. 6.8.4 and 6.8.7). Origins
+        // leave surfaces offset by the error bound of the hit point (`Surface::spawn_origin`);
+        // the two together keep rays off their own surface with no fixed epsilon. The bound
+        // grows as the triangle's determinant shrinks: slivers need it most. Hits farther than
+        // `NEAR_HIT` (a thousandth of the internal frame's diagonal, far above any bound but a
+        // degenerate sliver's) skip it: most hits are, and the bound costs as much as the test.
+        let t = t.mul(inv);
+        if t.lt(F4::splat(NEAR_HIT)).mask() & mask == 0 {
+            return BlockHits { mask, t: t.to_array(), u: u.mul(inv), v: v.mul(inv) };
+        }
+        let delta_t = t_error_bound([[ax, ay, az], [bx, by, bz], [cx, cy, cz]], [e0, e1, e2], sz, inv);
+        let mask = mask & delta_t.lt(t).mask();
+        BlockHits { mask, t: t.to_array(), u: u.mul(inv), v: v.mul(inv) }
     }
+}
+
+/// pbrt-v4's bound on the rounding error of the watertight test's t (Sec. 6.8.7), from the
+/// vertices in the ray's sheared frame, the edge functions, the z scale and 1 / |det|. Out of
+/// line: few hits are near enough to need it, and the traversal loop stays small.
+#[inline(never)]
+fn t_error_bound(v: [[F4; 3]; 3], e: [F4; 3], sz: F4, inv: F4) -> F4 {
+    let abs = |x: F4| x.and(F4::splat(f32::from_bits(0x7fff_ffff)));
+    let max3 = |a: F4, b: F4, c: F4| abs(a).max(abs(b)).max(abs(c));
+    let [[ax, ay, az], [bx, by, bz], [cx, cy, cz]] = v;
+    let max_zt = max3(az, bz, cz).mul(abs(sz));
+    let (max_xt, max_yt) = (max3(ax, bx, cx), max3(ay, by, cy));
+    let delta_z = F4::splat(gamma(3)).mul(max_zt);
+    let delta_x = F4::splat(gamma(5)).mul(max_xt.add(max_zt));
+    let delta_y = F4::splat(gamma(5)).mul(max_yt.add(max_zt));
+    let delta_e = F4::splat(2.0)
+        .mul(F4::splat(gamma(2)).mul(max_xt).mul(max_yt).add(delta_y.mul(max_xt)).add(delta_x.mul(max_yt)));
+    let max_e = max3(e[0], e[1], e[2]);
+    F4::splat(3.0)
+        .mul(F4::splat(gamma(3)).mul(max_e).mul(max_zt).add(delta_e.mul(max_zt)).add(delta_z.mul(max_e)))
+        .mul(inv)
+}
+
+/// Hits at least this far need no check against the intersection's error bound.
+const NEAR_HIT: f32 = 1e-2;
+
+/// pbrt's gamma(n) = n u / (1 - n u), u = 2^-24: the relative error bound of n roundings.
+pub const fn gamma(n: u32) -> f32 {
+    let nu = n as f32 * (f32::EPSILON * 0.5);
+    nu / (1.0 - nu)
 }
 
 #[cfg(test)]
