@@ -402,8 +402,8 @@ pub struct LeafCost {
 
 impl Default for LeafCost {
     /// The fastest of node costs 0.25 to 3 and leaves of 8 to 32 triangles on the 1M-triangle
-    /// terrain (`wedge bench rays`, BENCHMARKS.md "Rays"): faster there than obvhs's leaves of
-    /// up to 8 triangles, for primary, shadow and bounce rays alike.
+    /// terrain (`wedge bench rays`, BENCHMARKS.md "Rays"), against obvhs's own leaves of up to
+    /// 8 triangles, for primary, shadow and bounce rays.
     fn default() -> Self {
         LeafCost { node: 1.5, max_triangles: 16 }
     }
