@@ -3,9 +3,11 @@
 //! Mehta 2013 for indirect light) with Tokuyoshi 2015's lobe-aware cross-bilateral weights in
 //! place of their normal threshold, every part of the light filtered apart and untextured.
 //!
-//! - **Samples.** The same samples everywhere, four times as many per pass. The AAF papers'
-//!   counts (Eq. 21 in both) ask for far more than a preview budget has, so they are not used:
-//!   the widths follow the samples a pixel has instead. One jittered camera path per sample,
+//! - **Samples.** Four times as many per pass, the same everywhere up to `adaptive_from_spp`;
+//!   from then on half of each pass's samples go where one sample of the shadowed direct light
+//!   varies most (`counts.rs`). The AAF papers' counts (Eq. 21 in both) ask for far more than a
+//!   preview budget has, so they are not used: the widths follow the samples a pixel has
+//!   instead. One jittered camera path per sample,
 //!   split at its first hit (`sample.rs`): each rectangular light's diffuse direct light as r(x) times visibility
 //!   (Mehta 2012 Eq. 1: r exact, the visibility A / B the only noisy factor), the indirect
 //!   light under the cosine lobe and under the glossy lobe without textures (Mehta 2013
@@ -25,6 +27,7 @@
 //!
 //! Ambient-occlusion renders are the indirect paper's extension (Sec. 6): `auto` renders them as
 //! `aaf` does.
+mod counts;
 pub mod options;
 mod sample;
 #[cfg(test)]
@@ -166,8 +169,23 @@ impl AutoStrategy {
         self.gbuffer = Some(g);
     }
 
-    /// Traces every pixel up to `target` samples.
+    /// Traces every pixel up to `target` samples, or up to its own count once they adapt: then
+    /// first every pixel up to the pass's uniform share and only then the adaptive extras, so
+    /// that a pass the deadline cuts has raised the whole image before its penumbrae.
     fn trace(&mut self, ctx: &PassContext, target: u32) -> Result<bool, RenderError> {
+        let nl = self.lights.len();
+        let Some(counts) = counts::adaptive_targets(&self.opts, target, &self.sums, &self.light_sums, nl) else {
+            return self.trace_to(ctx, &|_| target);
+        };
+        let uniform = counts::uniform_share(&self.opts, target);
+        if !self.trace_to(ctx, &|p| counts[p].min(uniform))? {
+            return Ok(false);
+        }
+        self.trace_to(ctx, &|p| counts[p])
+    }
+
+    /// Traces every pixel p up to `count(p)` samples.
+    fn trace_to(&mut self, ctx: &PassContext, count: &(dyn Fn(usize) -> u32 + Sync)) -> Result<bool, RenderError> {
         let (w, nl) = (self.width.max(1), self.lights.len());
         let sampling = Sampling {
             scene: ctx.scene,
@@ -189,6 +207,7 @@ impl AutoStrategy {
                         return Tally { rays, dropped, complete: false };
                     }
                     let lights = &mut light_row[x * nl..(x + 1) * nl];
+                    let target = count(y * w + x);
                     while px.taken < target {
                         let (r, d) = sampling.run(x, y, seed, px, lights);
                         rays += r;

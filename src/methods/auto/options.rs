@@ -33,6 +33,14 @@ pub struct AutoOptions {
     /// r(x), the exact unshadowed light, is computed on the first this many samples of a pixel,
     /// then on one block of as many in four (methods.md §5.1).
     pub r_block: u32,
+    /// From the pass whose mean count reaches this many samples per pixel on, part of each
+    /// pass's samples goes to the pixels whose shadowed direct light is noisiest (`counts.rs`);
+    /// 0: the same count everywhere throughout.
+    pub adaptive_from_spp: u32,
+    /// That part, in [0, 1]; the rest is spread evenly, so that every pixel converges.
+    pub adaptive_share: f64,
+    /// No pixel asks for more than this many times the pass's mean count.
+    pub adaptive_max_ratio: f64,
 }
 
 impl Default for AutoOptions {
@@ -49,6 +57,9 @@ impl Default for AutoOptions {
             beta: 20.0,
             sigma_z2_relative: 0.01,
             r_block: 16,
+            adaptive_from_spp: 64,
+            adaptive_share: 0.5,
+            adaptive_max_ratio: 8.0,
         }
     }
 }

@@ -55,7 +55,10 @@ fn the_stream_keeps_the_energy_narrows_and_converges() {
     for (name, parts) in [("cornell", &["shadow", "diffuse"][..]), ("cornell-glossy", &["diffuse", "glossy"][..])] {
         let s = builtin(name, 32, 32);
         let reference = reference(s.clone(), 1, 2048.0);
-        let j = job(s.clone(), Method::Auto, 5, 1, 1);
+        let mut j = job(s.clone(), Method::Auto, 5, 1, 1);
+        // The same count everywhere, so that every pixel's width narrows by the same factor
+        // (`adaptive_counts_...` below renders with the adaptive counts).
+        j.auto.adaptive_from_spp = 0;
         assert_eq!(component_names(&j), parts, "{name}");
         let f = all_frames(&j);
         assert_eq!(f.len(), 5);
@@ -201,6 +204,48 @@ fn ambient_occlusion_renders_as_aaf() {
     assert_eq!(component_names(&a), ["diffuse"]);
     let (fa, fb) = (all_frames(&a), all_frames(&b));
     assert_eq!(fa.last().unwrap().color, fb.last().unwrap().color);
+}
+
+/// From `adaptive_from_spp` on, the area-lit box's penumbrae get more samples than its lit and
+/// umbral pixels, each pass keeps its mean count (within the rounding), every pixel keeps at least
+/// the uniform share, and the stream still converges to the reference with the same energy.
+#[test]
+fn adaptive_counts_sample_the_penumbrae_and_keep_the_total() {
+    let s = builtin("cornell", 32, 32);
+    let reference = reference(s.clone(), 0, 4096.0);
+    let j = job(s, Method::Auto, 5, 4, 0);
+    assert_eq!(j.auto.adaptive_from_spp, 64, "the default this test is written for");
+    let f = all_frames(&j);
+    for (k, fr) in f.iter().enumerate() {
+        let target = (1u32 << (2 * k)) as f32;
+        let mean_spp = fr.spp.iter().sum::<f32>() / fr.spp.len() as f32;
+        if k < 3 {
+            assert!(fr.spp.iter().all(|&n| n == target), "pass {k}: uniform below 64 spp");
+            continue;
+        }
+        assert!((mean_spp / target - 1.0).abs() < 0.02, "pass {k}: mean {mean_spp} vs {target}");
+        let min = fr.spp.iter().cloned().fold(f32::INFINITY, f32::min);
+        let max = fr.spp.iter().cloned().fold(0.0, f32::max);
+        assert!(min >= target / 2.0 - 0.5, "pass {k}: min {min}");
+        assert!(max >= 2.0 * target, "pass {k}: max {max}: the penumbrae get more");
+    }
+    // The pixels with the most samples are the penumbrae: their unfiltered visibility is
+    // neither 0 nor 1, i.e. their value lies strictly between the fully lit and shadowed ones.
+    let last = f.last().unwrap();
+    let raw = last.unfiltered_color();
+    let most = (0..raw.len()).max_by(|&a, &b| last.spp[a].total_cmp(&last.spp[b])).unwrap();
+    let (w, x, y) = (32usize, most % 32, most / 32);
+    let neighbours: Vec<f32> = (y.saturating_sub(2)..(y + 3).min(32))
+        .flat_map(|ny| (x.saturating_sub(2)..(x + 3).min(32)).map(move |nx| ny * w + nx))
+        .map(|q| raw[q][0])
+        .collect();
+    let spread =
+        neighbours.iter().cloned().fold(0.0, f32::max) - neighbours.iter().cloned().fold(f32::INFINITY, f32::min);
+    assert!(spread > 0.1 * raw[most][0].max(1e-3), "pixel {most} is not at a shadow edge: {neighbours:?}");
+    let (m, r) = (mean(&last.color), mean(&reference.color));
+    assert!((m / r - 1.0).abs() < 0.02, "mean {m} vs {r}");
+    let e: Vec<f64> = f.iter().map(|fr| rmse_off_lights(&fr.color, &reference)).collect();
+    assert!(e[4] < 0.5 * e[2], "{e:?}");
 }
 
 #[test]
