@@ -38,14 +38,19 @@ pub(super) fn direct_light_sigma(lights: &[LightSums]) -> f64 {
 /// pixel gets `1 - adaptive_share` of `target`, plus its share of the rest in proportion to
 /// its sigma, at most `adaptive_max_ratio` times `target` (what that cuts off is spread over the
 /// other pixels), and never fewer than it has.
+///
+/// Only for direct light (`bounces` 0): sigma sees the shadows' noise alone, and with indirect
+/// light, whose noise it misses, taking samples from the rest of the image for the penumbrae made
+/// `cornell` (3 bounces) worse at 256 spp (BENCHMARKS.md, "Noise target").
 pub(super) fn adaptive_targets(
     opts: &AutoOptions,
     target: u32,
+    bounces: u32,
     sums: &[PixelSums],
     light_sums: &[LightSums],
     lights: usize,
 ) -> Option<Vec<u32>> {
-    if opts.adaptive_from_spp == 0 || target < opts.adaptive_from_spp || lights == 0 {
+    if opts.adaptive_from_spp == 0 || target < opts.adaptive_from_spp || lights == 0 || bounces > 0 {
         return None;
     }
     let sigma: Vec<f64> = light_sums.par_chunks(lights).map(direct_light_sigma).collect();
@@ -106,11 +111,11 @@ mod tests {
         let opts = AutoOptions::default();
         let sums = vec![PixelSums { taken: 16, ..PixelSums::default() }; 4];
         let lights = [light(10.0, 10.0, 1.0), light(5.0, 10.0, 1.0), light(0.0, 10.0, 1.0), light(10.0, 10.0, 1.0)];
-        let t = adaptive_targets(&opts, 64, &sums, &lights, 1).expect("adaptive at 64 spp");
+        let t = adaptive_targets(&opts, 64, 0, &sums, &lights, 1).expect("adaptive at 64 spp");
         assert_eq!(t, [32, (32.0 + 0.5 * 64.0 * 4.0f64).min(opts.adaptive_max_ratio * 64.0) as u32, 32, 32]);
         // Spread over two noisy pixels, nothing is capped and the total is exactly 4 x 64.
         let lights = [light(5.0, 10.0, 1.0), light(5.0, 10.0, 1.0), light(0.0, 10.0, 1.0), light(10.0, 10.0, 1.0)];
-        let t = adaptive_targets(&opts, 64, &sums, &lights, 1).unwrap();
+        let t = adaptive_targets(&opts, 64, 0, &sums, &lights, 1).unwrap();
         assert_eq!(t, [96, 96, 32, 32]);
         assert_eq!(t.iter().sum::<u32>(), 4 * 64);
         assert!(t.iter().all(|&n| n >= uniform_share(&opts, 64)) && uniform_share(&opts, 64) == 32);
@@ -122,21 +127,24 @@ mod tests {
         let opts = AutoOptions { adaptive_max_ratio: 2.0, ..AutoOptions::default() };
         let sums = vec![PixelSums { taken: 16, ..PixelSums::default() }; 4];
         let lights = [light(10.0, 10.0, 1.0), light(5.0, 10.0, 1.0), light(0.0, 10.0, 1.0), light(10.0, 10.0, 1.0)];
-        let t = adaptive_targets(&opts, 64, &sums, &lights, 1).unwrap();
+        let t = adaptive_targets(&opts, 64, 0, &sums, &lights, 1).unwrap();
         // 160 capped at 128; the 32 cut off shared by three pixels: 32 + 32 / 3 each.
         assert_eq!(t, [43, 128, 43, 43]);
     }
 
     #[test]
-    fn counts_stay_uniform_below_the_threshold_without_shadow_noise_and_when_turned_off() {
+    fn counts_stay_uniform_below_the_threshold_without_shadow_noise_with_bounces_and_when_off() {
         let mut opts = AutoOptions::default();
         let sums = vec![PixelSums::default(); 2];
         let noisy = [light(5.0, 10.0, 1.0), light(10.0, 10.0, 1.0)];
-        assert!(adaptive_targets(&opts, opts.adaptive_from_spp / 2, &sums, &noisy, 1).is_none());
-        assert!(adaptive_targets(&opts, 256, &sums, &[light(10.0, 10.0, 1.0); 2], 1).is_none());
-        assert!(adaptive_targets(&opts, 256, &sums, &[], 0).is_none());
+        assert!(adaptive_targets(&opts, opts.adaptive_from_spp / 2, 0, &sums, &noisy, 1).is_none());
+        assert!(adaptive_targets(&opts, 256, 0, &sums, &[light(10.0, 10.0, 1.0); 2], 1).is_none());
+        assert!(adaptive_targets(&opts, 256, 0, &sums, &[], 0).is_none());
+        // With indirect light, whose noise sigma does not see.
+        assert!(adaptive_targets(&opts, 256, 1, &sums, &noisy, 1).is_none());
+        assert!(adaptive_targets(&opts, 256, 0, &sums, &noisy, 1).is_some());
         opts.adaptive_from_spp = 0;
-        assert!(adaptive_targets(&opts, 256, &sums, &noisy, 1).is_none());
+        assert!(adaptive_targets(&opts, 256, 0, &sums, &noisy, 1).is_none());
     }
 
     /// A pixel never loses samples it has: a count below what it holds is raised to it.
@@ -145,7 +153,7 @@ mod tests {
         let opts = AutoOptions::default();
         let mut sums = vec![PixelSums { taken: 64, ..PixelSums::default() }; 2];
         sums[1].taken = 500;
-        let t = adaptive_targets(&opts, 256, &sums, &[light(5.0, 10.0, 1.0), light(10.0, 10.0, 1.0)], 1).unwrap();
+        let t = adaptive_targets(&opts, 256, 0, &sums, &[light(5.0, 10.0, 1.0), light(10.0, 10.0, 1.0)], 1).unwrap();
         assert_eq!(t, [(128.0f64 + 256.0).min(opts.adaptive_max_ratio * 256.0) as u32, 500]);
     }
 }

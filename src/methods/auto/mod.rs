@@ -4,8 +4,8 @@
 //! place of their normal threshold, every part of the light filtered apart and untextured.
 //!
 //! - **Samples.** Four times as many per pass, the same everywhere up to `adaptive_from_spp`;
-//!   from then on half of each pass's samples go where one sample of the shadowed direct light
-//!   varies most (`counts.rs`). The AAF papers' counts (Eq. 21 in both) ask for far more than a
+//!   from then on, in direct-light renders, half of each pass's samples go where one sample of
+//!   the shadowed direct light varies most (`counts.rs`). The AAF papers' counts (Eq. 21 in both) ask for far more than a
 //!   preview budget has, so they are not used: the widths follow the samples a pixel has
 //!   instead. One jittered camera path per sample,
 //!   split at its first hit (`sample.rs`): each rectangular light's diffuse direct light as r(x) times visibility
@@ -174,7 +174,9 @@ impl AutoStrategy {
     /// that a pass the deadline cuts has raised the whole image before its penumbrae.
     fn trace(&mut self, ctx: &PassContext, target: u32) -> Result<bool, RenderError> {
         let nl = self.lights.len();
-        let Some(counts) = counts::adaptive_targets(&self.opts, target, &self.sums, &self.light_sums, nl) else {
+        let Some(counts) =
+            counts::adaptive_targets(&self.opts, target, ctx.job.bounces, &self.sums, &self.light_sums, nl)
+        else {
             return self.trace_to(ctx, &|_| target);
         };
         let uniform = counts::uniform_share(&self.opts, target);
