@@ -17,9 +17,10 @@ fn main() {
 /// A render allocates its per-pixel buffers afresh, and glibc's defaults hand freed blocks of
 /// more than 128 KiB (and free space over 128 KiB at the top of a heap) back to the kernel at
 /// once: the next render, a new view in a session or the next request, then pays a page fault
-/// and a zeroed page for every page again (BENCHMARKS.md, "Latency", has what it costs). Blocks up to 32 MiB (glibc's limit for this setting) now come
-/// from the heap, and up to 256 MiB of free heap stays mapped for reuse. Either setting given
-/// in the environment (`MALLOC_MMAP_THRESHOLD_`, `MALLOC_TRIM_THRESHOLD_`) is left as it is.
+/// and a zeroed page for every page again (BENCHMARKS.md, "Latency", has what it costs). Blocks
+/// up to 32 MiB (glibc's limit for this setting) now come from the heap, and up to 256 MiB of
+/// free heap stays mapped for reuse. Either setting given in the environment
+/// (`MALLOC_MMAP_THRESHOLD_`, `MALLOC_TRIM_THRESHOLD_`) is left as it is.
 fn keep_freed_memory() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     for (param, value, env) in [
