@@ -7,6 +7,8 @@
     python3 bench/mitsuba_compare.py scenes/cornell.json scenes/curved.json scenes/grids.json
     python3 bench/mitsuba_compare.py scenes/cornell-glossy.json scenes/interior.json \
         --width 96 --height 72 --reference-spp 1024 --max-spp 256
+    python3 bench/mitsuba_compare.py scenes/sky-spheres.json scenes/curved.json \
+        --env-map ../shared/assets/envmaps/probulator-256x128/uffizi.hdr --env-rotation 30
 
 For each wedge scene file (canonical protobuf JSON) this
 1. converts it to a Mitsuba 3 scene (same triangles, camera, BRDFs, emitters, bounces);
@@ -37,8 +39,13 @@ Conventions matched:
   face, spheres as the same latitude bands with smooth normals, not Mitsuba's analytic sphere;
 - wedge's glossy materials (Phong and Blinn-Phong, src/render/material.rs) through the Python
   BSDF plugin `wedge_glossy` below: wedge's f, density and lobe choice, textures included.
+- environment maps through Mitsuba's `envmap` with wedge's `up` and `rotation_deg` as its
+  to_world (the two share the map frame and texel layout), constant environments through
+  `constant`.
 Only what wedge's scene format has is converted (Lambertian and glossy materials with constant
-or checker textures, rect and point lights, inline meshes and the analytic shapes); anything else
+or checker textures, rect and point lights, environment maps and constants (not wedge's
+procedural sky: --env-map puts a map file in its place), inline meshes and the analytic
+shapes); anything else
 is reported, not approximated. The Python plugin makes glossy scenes slow (the scalar variant
 calls it once per shading point: about 45 s for cornell-glossy at 96x72 and 1024 spp).
 """
@@ -344,7 +351,42 @@ def material(m):
                                                "to_uv": T.scale([ch["scale"] / 2, ch["scale"] / 2, 1])}}
 
 
-def to_mitsuba(scene, width, height, spp, bounces):
+def environment(e, base_dir):
+    """wedge's environment light (src/render/environment.rs) as Mitsuba's `envmap` or
+    `constant` emitter. wedge's map frame is Mitsuba's (zenith +Y, u = 0 towards -Z, u = 1/4
+    towards +X); wedge turns world directions into it by `up` -> +Y, then -rotation_deg about
+    +Y, so Mitsuba's to_world is the inverse of that."""
+    scale = e.get("scale") or 1.0
+    if "constant" in e:
+        return {"type": "constant", "radiance": {"type": "rgb", "value": [c * scale for c in rgb(e["constant"])]}}
+    if "sky" in e:
+        raise SystemExit("the procedural sky is wedge's own: give the scene a map file (--env-map) to compare")
+    up = vec(e.get("up"), (0, 1, 0)) if e.get("up") else np.array([0.0, 1.0, 0.0])
+    up = up / np.linalg.norm(up)
+    y = np.array([0.0, 1.0, 0.0])
+    axis, c = np.cross(up, y), float(up @ y)
+    if np.linalg.norm(axis) < 1e-9:
+        align = np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    else:
+        k = axis / np.linalg.norm(axis)
+        kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+        s = np.linalg.norm(axis)
+        align = np.eye(3) + s * kx + (1 - c) * kx @ kx
+    r = math.radians(e.get("rotationDeg", 0.0))
+    turn_back = np.array([[math.cos(r), 0, math.sin(r)], [0, 1, 0], [-math.sin(r), 0, math.cos(r)]])
+    m = np.eye(4)
+    m[:3, :3] = align.T @ turn_back
+    out = {"type": "envmap", "scale": scale, "to_world": T(m.tolist())}
+    if "path" in e:
+        out["filename"] = os.path.join(base_dir, e["path"])
+    else:
+        mp = e["map"]
+        img = np.array(mp["rgb"], dtype=np.float32).reshape(mp["height"], mp["width"], 3)
+        out["bitmap"] = mi.Bitmap(img)
+    return out
+
+
+def to_mitsuba(scene, width, height, spp, bounces, base_dir="."):
     cam = scene["camera"]
     d = {"type": "scene",
          "integrator": {"type": "path", "max_depth": bounces + 2, "hide_emitters": False},
@@ -374,6 +416,9 @@ def to_mitsuba(scene, width, height, spp, bounces):
         d[f"shape{k}"] = {"type": "ply", "filename": write_ply(pw, idx, uv if uses_uv(mats[mat_name]) else None, nw),
                           "bsdf": {"type": "ref", "id": f"material-{mat_name}"}, "face_normals": nw is None}
     for k, l in enumerate(scene.get("lights", [])):
+        if "environment" in l:
+            d[f"light{k}"] = environment(l["environment"], base_dir)
+            continue
         if "point" in l:
             pt = l["point"]
             d[f"light{k}"] = {"type": "point", "position": vec(pt.get("position")).tolist(), "intensity": {"type": "rgb", "value": rgb(pt["intensity"])}}
@@ -425,7 +470,8 @@ def write_ply(p, idx, uv, nrm):
 
 def wedge_reference(path, width, height, spp, bounces, out, seed=7):
     cmd = [WEDGE, "render", path, "--method", "uniform", "--width", str(width), "--height", str(height),
-           "--max-spp", str(spp), "--bounces", str(bounces), "--seed", str(seed), "--out", out, "--reproducible"]
+           "--max-spp", str(spp), "--bounces", str(bounces), "--seed", str(seed), "--out", out, "--reproducible",
+           "--mesh-root", "/"]
     t = time.perf_counter()
     subprocess.run(cmd, check=True, capture_output=True)
     secs = time.perf_counter() - t
@@ -666,6 +712,19 @@ def check_sampler(spp=1024, pixels=40, dims=10):
     return 0
 
 
+def with_env_map(scene, name, args):
+    """`scene` lit by the map file of --env-map (replacing its environment light, if any),
+    written out as a scene file; returns the scene and the file."""
+    env = {"environment": {"path": os.path.abspath(args.env_map), "rotationDeg": args.env_rotation,
+                           "scale": args.env_scale}}
+    lights = [l for l in scene.get("lights", []) if "environment" not in l]
+    scene = dict(scene, lights=lights + [env])
+    path = os.path.join(_tmp, f"{name}-env.json")
+    with open(path, "w") as f:
+        json.dump(scene, f)
+    return scene, path
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("scenes", nargs="*")
@@ -680,6 +739,10 @@ def main():
     ap.add_argument("--max-spp", type=int, default=256)
     ap.add_argument("--bounces", type=int, help="override the scenes' indirect bounces")
     ap.add_argument("--save", help="directory to keep the four reference images in (.npy)")
+    ap.add_argument("--env-map", help="light every scene by this map file (.exr or .hdr): it replaces the scene's "
+                                      "environment light, or joins its other lights")
+    ap.add_argument("--env-rotation", type=float, default=0.0, help="with --env-map: its rotation_deg")
+    ap.add_argument("--env-scale", type=float, default=1.0, help="with --env-map: its scale")
     args = ap.parse_args()
     if args.check_bsdf:
         return 0 if check_bsdf() else 1
@@ -693,8 +756,11 @@ def main():
     for path in args.scenes:
         scene = json.load(open(path))
         name = os.path.splitext(os.path.basename(path))[0]
+        if args.env_map:
+            scene, path = with_env_map(scene, name, args)
+            name += "+" + os.path.splitext(os.path.basename(args.env_map))[0]
         bounces = args.bounces if args.bounces is not None else scene.get("settings", {}).get("bounces", 0)
-        d = to_mitsuba(scene, args.width, args.height, args.reference_spp, bounces)
+        d = to_mitsuba(scene, args.width, args.height, args.reference_spp, bounces, os.path.dirname(os.path.abspath(path)))
         out = os.path.join(_tmp, name)
         w, ws = wedge_reference(path, args.width, args.height, args.reference_spp, bounces, out)
         w2, _ = wedge_reference(path, args.width, args.height, args.reference_spp, bounces, out + "-2", seed=8)

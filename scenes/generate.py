@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the built-in scenes (cornell, grids, curved, cornell-glossy, interior, glossy-plates) as canonical protobuf JSON
+"""Writes the built-in scenes (cornell, grids, curved, cornell-glossy, interior, glossy-plates, sky-spheres) as canonical protobuf JSON
 of wedge.v1.Scene. Run from anywhere: `python3 scenes/generate.py`. The JSON files are
 committed and compiled into the binary; this script is how they were made."""
 import json
@@ -295,6 +295,32 @@ def glossy_plates():
     }
 
 
+def sky_spheres():
+    # Glossy spheres under the built-in procedural sky, like the scenes of Bagher et al. 2012
+    # (glossy and textured objects under distant light): Phong exponents 10 to 1,000 in a row on
+    # a checkered floor (2-unit checks), left to right, the sun behind them on the left, low
+    # enough to cast long shadows, one bounce.
+    materials = [{"name": "floor", "lambertian": {"albedo": {"checker": {"even": rgb(0.7, 0.7, 0.68),
+                                                                         "odd": rgb(0.2, 0.2, 0.22), "scale": 200}}}}]
+    spheres = []
+    colours = [(0.5, 0.1, 0.05), (0.45, 0.3, 0.05), (0.1, 0.35, 0.1), (0.05, 0.2, 0.45), (0.3, 0.1, 0.4)]
+    for k, (m, kd) in enumerate(zip([10, 30, 100, 300, 1000], colours)):
+        materials.append(glossy(f"phong_{m}", kd, (0.45, 0.45, 0.45), m, "GLOSSY_MODEL_PHONG"))
+        spheres.append({"name": f"sphere_{m}", "material": f"phong_{m}",
+                        "sphere": {"center": v(4.4 - 2.2 * k, 1, 0), "radius": 1, "subdivisions": 48}})
+    return {
+        "description": "Glossy spheres (Phong m = 10 to 1,000) on a checkered floor under the procedural sky, 1 bounce",
+        "camera": {"position": v(0, 3.2, -9), "lookAt": v(0, 0.8, 0), "up": v(0, 1, 0),
+                   "verticalFovDeg": 40, "width": 320, "height": 240},
+        "materials": materials,
+        # The floor reaches almost to the horizon (its far checkers are finer than a pixel).
+        "shapes": [{"name": "floor", "material": "floor",
+                    "quad": {"corner": v(-200, 0, -200), "edgeU": v(0, 0, 400), "edgeV": v(400, 0, 0)}}] + spheres,
+        "lights": [{"environment": {"sky": {"sunElevationDeg": 35, "sunAzimuthDeg": 120}}}],
+        "settings": {"bounces": 1},
+    }
+
+
 def three_sigma(make):
     # The same scene under the Gaussian light that AAF's analysis assumes (Mehta et al. 2012,
     # Sec. 4: Omega_L = 1/sigma): same centre and same sigma, on a rectangle three times as wide
@@ -323,7 +349,7 @@ if __name__ == "__main__":
     for name, make in [("cornell", cornell), ("grids", grids), ("curved", curved),
                        ("cornell-glossy", cornell_glossy), ("interior", interior),
                        ("grids-3sigma", three_sigma(grids)), ("curved-3sigma", three_sigma(curved)),
-                       ("glossy-plates", glossy_plates)]:
+                       ("glossy-plates", glossy_plates), ("sky-spheres", sky_spheres)]:
         with open(os.path.join(HERE, name + ".json"), "w") as f:
             compact = name in ("curved", "cornell-glossy", "interior", "curved-3sigma")
             json.dump(make(), f, separators=(",", ":") if compact else (",", ": "), indent=None if compact else 1)

@@ -86,6 +86,7 @@ fn limits() -> Limits {
         max_mean_spp: 4.0,
         max_time_budget_seconds: 1.0,
         mesh_root: None,
+        max_environment_texels: 64 * 32,
     }
 }
 

@@ -114,14 +114,14 @@ fn edited_cornell() -> (SceneEdit, wedge::proto::Scene) {
     let json = r#"{"materials": [{"name": "red", "glossy": {"diffuse": {"constant": {"r": 0.4, "g": 0.05, "b": 0.05}},
         "specular": {"constant": {"r": 0.5, "g": 0.5, "b": 0.5}}, "exponent": {"constant": 300}}}]}"#;
     let red = wedge::scene::json::parse_scene(json, "edit").unwrap().materials.remove(0);
-    let mut light = scene.lights[0];
+    let mut light = scene.lights[0].clone();
     if let Some(wedge::proto::light::Kind::Rect(r)) = light.kind.as_mut() {
         r.corner.as_mut().unwrap().x -= 60.0;
         r.radiance = r.radiance.map(|c| wedge::proto::Rgb { r: c.r / 3.0, g: c.g / 3.0, b: c.b / 3.0 });
     }
     let i = scene.materials.iter().position(|m| m.name == "red").unwrap();
     scene.materials[i] = red.clone();
-    scene.lights[0] = light;
+    scene.lights[0] = light.clone();
     let edit = SceneEdit { materials: vec![red], lights: vec![LightEdit { index: 0, light: Some(light) }] };
     (edit, scene)
 }

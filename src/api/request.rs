@@ -37,8 +37,10 @@ pub struct Limits {
     pub max_passes: u32,
     pub max_mean_spp: f64,
     pub max_time_budget_seconds: f64,
-    /// Root for mesh files referenced by scene files; `None` refuses mesh paths.
+    /// Root for mesh and map files referenced by scene files; `None` refuses file paths.
     pub mesh_root: Option<PathBuf>,
+    /// Most texels of an environment map.
+    pub max_environment_texels: u64,
 }
 
 impl Default for Limits {
@@ -50,6 +52,7 @@ impl Default for Limits {
             max_mean_spp: 65536.0,
             max_time_budget_seconds: 3600.0,
             mesh_root: None,
+            max_environment_texels: crate::scene::DEFAULT_MAX_ENVIRONMENT_TEXELS,
         }
     }
 }
@@ -123,11 +126,12 @@ pub fn header(scene: &proto::Scene) -> proto::Scene {
     crate::scene::edit::header(scene)
 }
 
-fn scene_limits(limits: &Limits) -> SceneLimits {
+pub(crate) fn scene_limits(limits: &Limits) -> SceneLimits {
     SceneLimits {
         max_triangles: limits.max_triangles,
         max_pixels: limits.max_pixels,
         mesh_root: limits.mesh_root.clone(),
+        max_environment_texels: limits.max_environment_texels,
     }
 }
 
@@ -531,7 +535,7 @@ mod tests {
         // AAF state grows with pixels x area lights: bounded like the image. Two lights on a
         // 32 x 24 image: 1536 pixel-lights against a limit of 1000 pixels (the image fits).
         let mut scene = builtin::get("curved").unwrap();
-        let light = scene.lights[0];
+        let light = scene.lights[0].clone();
         scene.lights.push(light);
         let mut r = proto::RenderRequest {
             scene_source: Some(proto::render_request::SceneSource::Scene(scene)),

@@ -69,7 +69,7 @@ pub fn make_rays(scene: &Scene, spp: u32) -> [RaySet; 3] {
                 let target = match scene.lights.first() {
                     Some(Light::Rect(r)) => r.point(s.next_2d()),
                     Some(Light::Point(p)) => p.position,
-                    None => hit.p + hit.ng,
+                    Some(Light::Environment(_)) | None => hit.p + hit.ng,
                 };
                 if let Some((o, dir, tmax)) = hit.ray_to(target) {
                     sets[1].origins.push(o);

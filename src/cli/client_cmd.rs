@@ -13,10 +13,10 @@ pub fn run(args: ClientArgs) -> anyhow::Result<()> {
     let r = &args.render;
     let scene = resolve_scene(r)?;
     let mut source = scene.source.clone();
-    // Servers refuse file paths: send mesh files' contents inline.
+    // Servers refuse file paths: send mesh files' and maps' contents inline.
     if let (SceneSource::Scene(s), Some(base), Some(root)) = (&mut source, &scene.base_dir, &scene.mesh_root) {
-        crate::scene::inline_mesh_files(s, base, root, Limits::default().max_triangles)
-            .map_err(|e| anyhow!("{}", scene.describe(&e)))?;
+        let limits = crate::api::request::scene_limits(&Limits::default());
+        crate::scene::inline_files(s, base, root, &limits).map_err(|e| anyhow!("{}", scene.describe(&e)))?;
     }
     let req = build_request(r, source)?;
     let info = request_info(&req, &scene.label);

@@ -50,6 +50,9 @@ pub struct ServeArgs {
     /// Most triangles a scene may have.
     #[arg(long, default_value_t = 5_000_000)]
     pub max_triangles: u64,
+    /// Most texels an environment map (inline, or a baked sky) may have.
+    #[arg(long, default_value_t = crate::scene::DEFAULT_MAX_ENVIRONMENT_TEXELS)]
+    pub max_environment_texels: u64,
     /// Most passes a render may run.
     #[arg(long, default_value_t = 64)]
     pub max_passes: u32,

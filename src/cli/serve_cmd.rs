@@ -16,6 +16,7 @@ pub fn run(a: ServeArgs) -> anyhow::Result<()> {
             max_mean_spp: a.max_spp,
             max_time_budget_seconds: a.max_time,
             mesh_root: None,
+            max_environment_texels: a.max_environment_texels,
         },
         max_concurrent_renders: a.max_concurrent.max(1),
         max_chunk_bytes: a.max_chunk_bytes,

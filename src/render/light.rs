@@ -1,4 +1,6 @@
-//! Lights: one-sided rectangular area lights (uniform or Gaussian emission) and point lights.
+//! Lights: one-sided rectangular area lights (uniform or Gaussian emission), point lights and
+//! the environment (`environment`).
+pub use super::environment::EnvironmentLight;
 use glam::Vec3;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -43,6 +45,8 @@ pub struct PointLight {
 pub enum Light {
     Rect(RectLight),
     Point(PointLight),
+    /// Light from infinitely far away: at most one per scene (`scene::compile` checks).
+    Environment(EnvironmentLight),
 }
 
 /// A light sample as seen from a shading point.

@@ -2,12 +2,14 @@
 //! imports only within `render`.
 //!
 //! One file per concept: `camera` (the view), `sampler`, `geometry` (triangles and BVH;
-//! `wide_bvh` its traversal), `texture`, `material`, `light`, `scene` (the compiled scene, no
+//! `wide_bvh` its traversal), `texture`, `material`, `light` (with `environment` and its `distribution`), `scene` (the compiled scene, no
 //! camera), `integrator` (radiance along a path), `gbuffer` (one primary hit per pixel), `aovs` (denoiser inputs) and
 //! `filter` (the G-buffer-guided Gaussian gather the methods filter with); `huge_pages`
 //! allocates large arrays.
 pub mod aovs;
 pub mod camera;
+pub mod distribution;
+pub mod environment;
 pub mod filter;
 pub mod frame_basis;
 pub mod gbuffer;
@@ -18,6 +20,7 @@ pub mod light;
 pub mod material;
 pub mod sampler;
 pub mod scene;
+pub mod sky;
 #[cfg(test)]
 pub mod test_rng;
 pub mod texture;

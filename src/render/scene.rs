@@ -10,7 +10,7 @@
 //! radiometric quantity with a length in it (E = I / r^2), so it is rescaled by s^2.
 use super::camera::Camera;
 use super::geometry::{gamma, BvhLayout, BvhQuality, Geometry, GeometryBuilder, Hit, NONE};
-use super::light::{Light, RectLight};
+use super::light::{EnvironmentLight, Light, RectLight};
 use super::material::Material;
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
@@ -133,6 +133,8 @@ fn to_internal_lights(lights: &mut [Light], origin: Vec3, scale: f32) {
                 p.position = to_internal(p.position);
                 p.intensity *= scale * scale;
             }
+            // Directions only: a similarity transform leaves them as they are.
+            Light::Environment(_) => {}
         }
     }
 }
@@ -317,6 +319,29 @@ impl Scene {
         // at most half an ulp, which can take back at most sqrt(3)/2 ulp along ng.
         let offset = ng.abs().dot(err) + p.abs().max_element() * f32::EPSILON;
         Surface { p, ng, ns, uv, material: attr.material, object: attr.object, t: h.t, offset }
+    }
+
+    /// The environment light, if the scene has one.
+    #[inline]
+    pub fn environment(&self) -> Option<&EnvironmentLight> {
+        self.lights.iter().find_map(|l| match l {
+            Light::Environment(e) => Some(e),
+            _ => None,
+        })
+    }
+
+    /// Radiance arriving along a ray that leaves the scene in direction `dir`: the
+    /// environment's, or black.
+    #[inline]
+    pub fn background(&self, dir: Vec3) -> Vec3 {
+        self.environment().map_or(Vec3::ZERO, |e| e.radiance(dir))
+    }
+
+    /// True when nothing blocks the ray from surface `s` in direction `dir` (on `s.ng`'s side):
+    /// the environment is visible that way.
+    #[inline]
+    pub fn escapes(&self, s: &Surface, dir: Vec3) -> bool {
+        !self.geometry.occluded(s.spawn_origin(), dir, 0.0, f32::INFINITY)
     }
 
     /// True when something blocks the segment from surface `s` to `target` (on `s.ng`'s

@@ -13,6 +13,7 @@ const SOURCES: &[(&str, &str)] = &[
     ("grids-3sigma", include_str!("../../scenes/grids-3sigma.json")),
     ("curved-3sigma", include_str!("../../scenes/curved-3sigma.json")),
     ("glossy-plates", include_str!("../../scenes/glossy-plates.json")),
+    ("sky-spheres", include_str!("../../scenes/sky-spheres.json")),
 ];
 
 pub struct BuiltinScene {
@@ -64,7 +65,8 @@ mod tests {
                 "interior",
                 "grids-3sigma",
                 "curved-3sigma",
-                "glossy-plates"
+                "glossy-plates",
+                "sky-spheres"
             ]
         );
         assert!(get("nope").is_none());

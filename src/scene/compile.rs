@@ -36,8 +36,9 @@ pub fn compile_builder(
     let materials = materials("scene.materials", &scene.materials, &mut b)?;
     let mut budget = limits.max_triangles;
     for (i, light) in scene.lights.iter().enumerate() {
-        add_light(&format!("scene.lights[{i}]"), light, &mut b)?;
+        add_light(&format!("scene.lights[{i}]"), light, &mut b, limits, base_dir)?;
     }
+    one_environment(&scene.lights)?;
     // Rect lights are geometry too.
     budget = budget.saturating_sub(b.geometry.len() as u64);
     // Instances refer to shapes by name: meshes are built once and placed by each transform.
@@ -191,10 +192,35 @@ pub(super) fn materials<'a>(
     Ok(by_name)
 }
 
-pub(super) fn add_light(path: &str, l: &proto::Light, b: &mut SceneBuilder) -> FieldResult<()> {
+/// A scene may hold one environment light: the sky is one.
+pub(super) fn one_environment(lights: &[proto::Light]) -> FieldResult<()> {
+    let mut env = lights.iter().enumerate().filter(|(_, l)| matches!(l.kind, Some(proto::light::Kind::Environment(_))));
+    match (env.next(), env.next()) {
+        (Some((i, _)), Some((j, _))) => err(
+            format!("scene.lights[{j}].environment"),
+            format!("a scene has at most one environment light, and scene.lights[{i}] is one already"),
+        ),
+        _ => Ok(()),
+    }
+}
+
+/// Validates light `l` and adds it to `b`. Environment maps named by path resolve as mesh
+/// files do (`limits.mesh_root`, `base_dir`).
+pub(super) fn add_light(
+    path: &str,
+    l: &proto::Light,
+    b: &mut SceneBuilder,
+    limits: &SceneLimits,
+    base_dir: Option<&Path>,
+) -> FieldResult<()> {
     use proto::light::Kind;
     match &l.kind {
-        None => err(path, "needs a kind (rect or point)"),
+        None => err(path, "needs a kind (rect, point or environment)"),
+        Some(Kind::Environment(e)) => {
+            let light = super::environment::environment_light(&format!("{path}.environment"), e, limits, base_dir)?;
+            b.lights.push(Light::Environment(light));
+            Ok(())
+        }
         Some(Kind::Rect(r)) => {
             let p = format!("{path}.rect");
             let corner = vec3(&format!("{p}.corner"), &r.corner)?;
@@ -359,13 +385,20 @@ pub(crate) fn load_mesh_file(
     root: &Path,
     base: &Path,
 ) -> FieldResult<meshfile::MeshData> {
+    let resolved = resolve_file(path, file, root, base)?;
+    meshfile::load_mesh(&resolved, budget).or_else(|e| err(path, e.to_string()))
+}
+
+/// A file named by a scene file (a mesh, an environment map): relative to the scene's
+/// directory `base`, and refused unless it lies inside `root` once links are resolved.
+pub(crate) fn resolve_file(path: &str, file: &str, root: &Path, base: &Path) -> FieldResult<std::path::PathBuf> {
     let full = base.join(file);
     let resolved = full.canonicalize().or_else(|e| err(path, format!("cannot open {}: {e}", full.display())))?;
-    let root = root.canonicalize().or_else(|e| err(path, format!("mesh root {}: {e}", root.display())))?;
+    let root = root.canonicalize().or_else(|e| err(path, format!("file root {}: {e}", root.display())))?;
     if !resolved.starts_with(&root) {
         return err(path, format!("{} is outside the allowed root {}", resolved.display(), root.display()));
     }
-    meshfile::load_mesh(&resolved, budget).or_else(|e| err(path, e.to_string()))
+    Ok(resolved)
 }
 
 fn mesh_file(

@@ -4,6 +4,7 @@
 use super::compile::{add_light, materials};
 use super::fields::err;
 use super::FieldError;
+use super::SceneLimits;
 use crate::proto;
 use crate::render::scene::{EditRefused, Scene, SceneBuilder};
 
@@ -19,6 +20,7 @@ pub fn apply(
     header: &proto::Scene,
     compiled: &Scene,
     edit: &proto::SceneEdit,
+    limits: &SceneLimits,
 ) -> Result<(proto::Scene, Scene), FieldError> {
     let mut next = header.clone();
     // Each edited material is validated as it is, under its own name in the edit.
@@ -50,22 +52,28 @@ pub fn apply(
             );
         };
         let Some(light) = &l.light else { return err(format!("{path}.light"), "is required") };
-        add_light(&format!("{path}.light"), light, &mut scratch)?;
+        add_light(&format!("{path}.light"), light, &mut scratch, limits, None)?;
         let kind = |l: &proto::Light| l.kind.as_ref().map(std::mem::discriminant);
         if kind(light) != kind(old) {
             return err(
                 format!("{path}.light"),
-                "must be of the kind it replaces (rect or point): another kind changes the geometry, which needs \
-                 the scene compiled again (a new session)",
+                "must be of the kind it replaces (rect, point or environment): another kind changes the geometry, \
+                 which needs the scene compiled again (a new session)",
             );
         }
-        next.lights[l.index as usize] = *light;
+        next.lights[l.index as usize] = light.clone();
     }
     // The whole edited list, compiled as at compile time (materials, then lights).
     let mut b = SceneBuilder::new(compiled.default_camera.clone());
     materials("scene.materials", &next.materials, &mut b)?;
     for (i, light) in next.lights.iter().enumerate() {
-        add_light(&format!("scene.lights[{i}]"), light, &mut b)?;
+        // An environment the edit left alone keeps its compiled map (building a map's
+        // sampling tables costs more than the rest of an edit).
+        if light == &header.lights[i] && matches!(light.kind, Some(proto::light::Kind::Environment(_))) {
+            b.lights.push(compiled.lights[i].clone());
+            continue;
+        }
+        add_light(&format!("scene.lights[{i}]"), light, &mut b, limits, None)?;
     }
     let scene = compiled.with_lights(b).map_err(|e| FieldError {
         field: "edit".into(),

@@ -7,6 +7,8 @@ use std::path::{Path, PathBuf};
 pub mod builtin;
 mod compile;
 pub mod edit;
+mod environment;
+pub mod envmap;
 pub(crate) mod fields;
 pub mod json;
 pub mod locate;
@@ -14,15 +16,16 @@ pub mod meshfile;
 mod shapes;
 
 pub use compile::MAX_EXPONENT;
+pub use environment::MAX_SKY_RESOLUTION;
 
-/// Replaces every mesh file path in a scene file's shapes with the file's contents as inline
-/// arrays, so that the scene can travel over gRPC (servers refuse file paths). Paths resolve
-/// as in `compile`: from `base_dir`, inside `root`.
-pub fn inline_mesh_files(
+/// Replaces every file a scene file names (mesh files, environment maps) with the file's
+/// contents inline, so that the scene can travel over gRPC (servers refuse file paths). Paths
+/// resolve as in `compile`: from `base_dir`, inside `root`.
+pub fn inline_files(
     scene: &mut proto::Scene,
     base_dir: &Path,
     root: &Path,
-    max_triangles: u64,
+    limits: &SceneLimits,
 ) -> Result<(), FieldError> {
     for (i, shape) in scene.shapes.iter_mut().enumerate() {
         let Some(proto::shape::Geometry::Mesh(m)) = &mut shape.geometry else { continue };
@@ -30,7 +33,7 @@ pub fn inline_mesh_files(
             continue;
         }
         let field = format!("scene.shapes[{i}].mesh.path");
-        let data = compile::load_mesh_file(&field, &m.path, max_triangles, root, base_dir)?;
+        let data = compile::load_mesh_file(&field, &m.path, limits.max_triangles, root, base_dir)?;
         *m = proto::Mesh {
             positions: data.positions.iter().flatten().copied().collect(),
             indices: data.indices.iter().flatten().copied().collect(),
@@ -38,6 +41,19 @@ pub fn inline_mesh_files(
             uvs: data.uvs.map(|n| n.iter().flatten().copied().collect()).unwrap_or_default(),
             path: String::new(),
         };
+    }
+    for (i, light) in scene.lights.iter_mut().enumerate() {
+        let Some(proto::light::Kind::Environment(e)) = &mut light.kind else { continue };
+        let Some(proto::environment_light::Radiance::Path(file)) = &e.radiance else { continue };
+        let field = format!("scene.lights[{i}].environment.path");
+        let resolved = compile::resolve_file(&field, file, root, base_dir)?;
+        let data = envmap::load_map(&resolved, limits.max_environment_texels)
+            .map_err(|message| FieldError { field: field.clone(), message })?;
+        e.radiance = Some(proto::environment_light::Radiance::Map(proto::EnvironmentMap {
+            width: data.width as u32,
+            height: data.height as u32,
+            rgb: data.rgb.iter().flatten().copied().collect(),
+        }));
     }
     Ok(())
 }
@@ -62,14 +78,25 @@ impl std::error::Error for FieldError {}
 pub struct SceneLimits {
     pub max_triangles: u64,
     pub max_pixels: u64,
-    /// Mesh files must resolve inside this directory; `None`: mesh paths are refused
-    /// (e.g. for scenes that arrive over gRPC).
+    /// Mesh and environment map files must resolve inside this directory; `None`: file
+    /// paths are refused (e.g. for scenes that arrive over gRPC).
     pub mesh_root: Option<PathBuf>,
+    /// Most texels an environment map (a file, an inline map or a baked sky) may have.
+    pub max_environment_texels: u64,
 }
+
+/// The default of `SceneLimits::max_environment_texels`: a 4K x 2K map (about 200 MB with its
+/// sampling tables).
+pub const DEFAULT_MAX_ENVIRONMENT_TEXELS: u64 = 4096 * 2048;
 
 impl Default for SceneLimits {
     fn default() -> Self {
-        SceneLimits { max_triangles: 5_000_000, max_pixels: 4096 * 4096, mesh_root: None }
+        SceneLimits {
+            max_triangles: 5_000_000,
+            max_pixels: 4096 * 4096,
+            mesh_root: None,
+            max_environment_texels: DEFAULT_MAX_ENVIRONMENT_TEXELS,
+        }
     }
 }
 

@@ -1,16 +1,12 @@
 //! The `ListScenes` answer: the built-in scenes, compiled once at server start for their sizes.
 use crate::api::request::Limits;
 use crate::proto::{ListScenesResponse, SceneInfo};
-use crate::scene::{self, SceneLimits};
+use crate::scene;
 
 /// Describes every built-in scene. A scene that fails to compile under `limits` is still listed
 /// (with the camera's resolution and 0 triangles) and logged as a warning.
 pub fn builtin_catalog(limits: &Limits) -> ListScenesResponse {
-    let scene_limits = SceneLimits {
-        max_triangles: limits.max_triangles,
-        max_pixels: limits.max_pixels,
-        mesh_root: limits.mesh_root.clone(),
-    };
+    let scene_limits = crate::api::request::scene_limits(limits);
     let scenes = scene::builtin::list()
         .into_iter()
         .map(|b| {

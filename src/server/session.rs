@@ -335,7 +335,9 @@ async fn control(
             None => Ok((scene.header.clone(), Arc::clone(&scene.compiled))),
             Some(edit) => {
                 let (header, compiled) = (scene.header.clone(), Arc::clone(&scene.compiled));
-                match tokio::task::spawn_blocking(move || crate::scene::edit::apply(&header, &compiled, &edit)).await {
+                let scene_limits = request::scene_limits(&limits);
+                let apply = move || crate::scene::edit::apply(&header, &compiled, &edit, &scene_limits);
+                match tokio::task::spawn_blocking(apply).await {
                     Ok(result) => result.map(|(h, c)| (h, Arc::new(c))),
                     Err(_) => Err(crate::scene::FieldError { field: "edit".into(), message: "the edit failed".into() }),
                 }

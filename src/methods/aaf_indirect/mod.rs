@@ -559,6 +559,13 @@ impl Sample<'_> {
         let mut dropped = 0u64;
         let Some(hit) = hit else {
             self.record(px, Vec3::ZERO, None, Vec3::ZERO, None);
+            // The background belongs with emission: to whichever part owns direct light.
+            if self.owns_direct {
+                let background = scene.background(dir);
+                for c in 0..3 {
+                    px.direct[c] += background[c] as f64;
+                }
+            }
             return (rays, 0);
         };
         let wo = -dir;

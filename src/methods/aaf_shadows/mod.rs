@@ -175,7 +175,7 @@ impl ShadowStrategy {
             .enumerate()
             .filter_map(|(index, l)| match l {
                 Light::Rect(r) => Some(shadow_light(index, r, &job.aaf)),
-                Light::Point(_) => None,
+                Light::Point(_) | Light::Environment(_) => None,
             })
             .collect();
         let (w, h) = (job.width() as usize, job.height() as usize);
@@ -659,7 +659,7 @@ struct Pixel<'a> {
 }
 
 /// One camera sample of one pixel: the rect lights that still need samples get one each; the
-/// rest of the light (emission, point lights) goes to `other`. Returns (rays, dropped).
+/// rest of the light (emission, point lights, the environment) goes to `other`. Returns (rays, dropped).
 #[allow(clippy::too_many_arguments)]
 fn sample_pixel(
     scene: &Scene,
@@ -687,6 +687,12 @@ fn sample_pixel(
                 s.r_n += u32::from(s.r_n < t.r);
             }
         }
+        // The background is the rest of what a ray that leaves the scene sees.
+        let background = scene.background(dir);
+        for c in 0..3 {
+            other.sum[c] += background[c] as f64;
+        }
+        other.sum2 += channel_mean(background.as_dvec3().to_array()).powi(2);
         return (rays, 0);
     };
     let wo = -dir;

@@ -120,7 +120,7 @@ impl AutoStrategy {
                     lights.push(shadow_light(i, r, &job.aaf));
                     Some(lights.len() - 1)
                 }
-                Light::Point(_) => None,
+                Light::Point(_) | Light::Environment(_) => None,
             })
             .collect();
         AutoStrategy {

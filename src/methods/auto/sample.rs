@@ -4,7 +4,7 @@ use crate::methods::aaf_indirect::{incident, ComponentSums};
 use crate::methods::aaf_shadows::{integrands, unshadowed, OccluderRange};
 use crate::pipeline::job::RenderJob;
 use crate::render::frame_basis::{cosine_hemisphere, to_world};
-use crate::render::integrator::{emitted, light_sample_radiance};
+use crate::render::integrator::{emitted, light_radiance, LightDims};
 use crate::render::light::Light;
 use crate::render::material::Material;
 use crate::render::sampler::PixelSampler;
@@ -94,6 +94,10 @@ impl Sampling<'_> {
                 px.diffuse.add(Vec3::ZERO, None);
                 px.glossy.add(Vec3::ZERO, None);
             }
+            let background = scene.background(dir);
+            for c in 0..3 {
+                px.rest[c] += background[c] as f64;
+            }
             return (1, 0);
         };
         let analysis = index < self.analysis_spp;
@@ -105,7 +109,8 @@ impl Sampling<'_> {
         let mut rest = emitted(scene, &hit, wo);
         // Every light draws its dimension pair, used or not, so that the streams stay aligned.
         for (light, slot) in scene.lights.iter().zip(self.slot) {
-            let u = sampler.next_2d();
+            let dims = LightDims::draw(light, &mut sampler);
+            let u = dims.light;
             if let (Light::Rect(rect), Some(l)) = (light, slot) {
                 let s = &mut lights[*l];
                 if self.r_due(index) {
@@ -139,9 +144,8 @@ impl Sampling<'_> {
                     }
                 }
                 (Light::Rect(_), None) => {}
-                (Light::Point(p), _) => {
-                    let Some(ls) = p.sample(hit.p) else { continue };
-                    let (l, r) = light_sample_radiance(scene, &hit, wo, &brdf, &ls);
+                (other, _) => {
+                    let (l, r) = light_radiance(scene, &hit, wo, &brdf, other, &dims);
                     rest += l;
                     rays += r as u64;
                 }

@@ -242,3 +242,125 @@ fn only_textured_materials_keep_texture_coordinates() {
     let textured = compile(&s, &SceneLimits::default(), None).unwrap();
     assert_eq!(textured.geometry.uvs.len(), 2);
 }
+
+/// The base scene with an environment light, given as the JSON of its `environment` field.
+fn with_environment(json: &str) -> proto::Scene {
+    let mut s = base();
+    let text = format!(r#"{{"lights": [{{"environment": {json}}}]}}"#);
+    s.lights.extend(parse_scene(&text, "env").unwrap().lights);
+    s
+}
+
+fn env_error(json: &str, limits: &SceneLimits) -> FieldError {
+    compile(&with_environment(json), limits, None).map(|_| ()).unwrap_err()
+}
+
+#[test]
+fn environment_lights_compile_from_a_constant_a_map_and_the_sky() {
+    use crate::render::light::Light;
+    let limits = SceneLimits::default();
+    let c =
+        compile(&with_environment(r#"{"constant": {"r": 0.5, "g": 1, "b": 2}, "scale": 2}"#), &limits, None).unwrap();
+    let Light::Environment(e) = &c.lights[1] else { panic!("an environment light") };
+    assert_eq!(e.radiance(Vec3::X), Vec3::new(1.0, 2.0, 4.0));
+    assert_eq!(c.background(Vec3::NEG_Y), Vec3::new(1.0, 2.0, 4.0));
+    // An inline 2 x 1 map: the left half faces -Z (u = 0 at its left edge), the right +Z.
+    let map = r#"{"map": {"width": 2, "height": 1, "rgb": [1, 1, 1, 3, 3, 3]}}"#;
+    let c = compile(&with_environment(map), &limits, None).unwrap();
+    assert!((c.background(Vec3::NEG_Z).x - 2.0).abs() < 1e-5, "between the two texel centres");
+    assert!((c.background(Vec3::Z).x - 2.0).abs() < 1e-5);
+    assert!((c.background(Vec3::X).x - 1.0).abs() < 1e-5, "the first texel's centre, u = 1/4");
+    // Turned 90 degrees about +Y, the first texel's centre faces -Z.
+    let turned = r#"{"map": {"width": 2, "height": 1, "rgb": [1, 1, 1, 3, 3, 3]}, "rotationDeg": 90}"#;
+    let c = compile(&with_environment(turned), &limits, None).unwrap();
+    assert!((c.background(Vec3::NEG_Z).x - 1.0).abs() < 1e-5);
+    // The sky: blue overhead, the sun where it was put.
+    let c = compile(&with_environment(r#"{"sky": {"sunElevationDeg": 30, "resolution": 64}}"#), &limits, None).unwrap();
+    let zenith = c.background(Vec3::Y);
+    assert!(zenith.z > zenith.x, "{zenith}");
+    let sun = Vec3::new(0.0, 0.5, -(0.75f32).sqrt());
+    assert!(c.background(sun).x > 100.0 * zenith.x);
+    // No shape needed: a scene of an environment alone compiles.
+    let mut bare = with_environment(r#"{"constant": {"r": 1, "g": 1, "b": 1}}"#);
+    bare.shapes.clear();
+    bare.lights.remove(0);
+    assert!(compile(&bare, &limits, None).is_ok());
+}
+
+#[test]
+fn bad_environment_lights_name_their_field() {
+    let limits = SceneLimits::default();
+    let cases = [
+        (r#"{}"#, "scene.lights[1].environment", "needs a radiance"),
+        (r#"{"constant": {"r": -1, "g": 1, "b": 1}}"#, "scene.lights[1].environment.constant.r", ">= 0"),
+        (r#"{"constant": {"r": 1, "g": 1, "b": 1}, "scale": -2}"#, "scene.lights[1].environment.scale", "got -2"),
+        (r#"{"constant": {"r": 1, "g": 1, "b": 1}, "up": {}}"#, "scene.lights[1].environment.up", "non-zero"),
+        (r#"{"map": {"width": 2, "height": 1, "rgb": [1, 1, 1]}}"#, "scene.lights[1].environment.map.rgb", "6 numbers"),
+        (r#"{"map": {"width": 0, "height": 1}}"#, "scene.lights[1].environment.map", "width and a height"),
+        (
+            r#"{"map": {"width": 1, "height": 1, "rgb": [1, "NaN", 1]}}"#,
+            "scene.lights[1].environment.map.rgb[1]",
+            "finite",
+        ),
+        (r#"{"sky": {"sunElevationDeg": 91}}"#, "scene.lights[1].environment.sky.sun_elevation_deg", "[-90, 90]"),
+        (r#"{"sky": {"sunRadiusDeg": 50}}"#, "scene.lights[1].environment.sky.sun_radius_deg", "[0, 45]"),
+        (r#"{"sky": {"resolution": 4}}"#, "scene.lights[1].environment.sky.resolution", "[8, 8192]"),
+        (r#"{"path": "sky.hdr"}"#, "scene.lights[1].environment.path", "not allowed here"),
+    ];
+    for (json, field, message) in cases {
+        let e = env_error(json, &limits);
+        assert_eq!(e.field, field, "{json}: {e}");
+        assert!(e.message.contains(message), "{json}: {e}");
+    }
+    // One environment per scene: the second is named.
+    let mut s = with_environment(r#"{"constant": {"r": 1, "g": 1, "b": 1}}"#);
+    s.lights.push(s.lights[1].clone());
+    let e = compile(&s, &limits, None).map(|_| ()).unwrap_err();
+    assert_eq!(e.field, "scene.lights[2].environment");
+}
+
+#[test]
+fn the_environment_texel_limit_holds_for_maps_and_skies() {
+    let limits = SceneLimits { max_environment_texels: 128, ..SceneLimits::default() };
+    let rgb = vec!["1"; 3 * 16 * 8].join(", ");
+    let fits = format!(r#"{{"map": {{"width": 16, "height": 8, "rgb": [{rgb}]}}}}"#);
+    assert!(compile(&with_environment(&fits), &limits, None).is_ok());
+    let rgb = vec!["1"; 3 * 17 * 8].join(", ");
+    let over = format!(r#"{{"map": {{"width": 17, "height": 8, "rgb": [{rgb}]}}}}"#);
+    let e = env_error(&over, &limits);
+    assert!(e.field == "scene.lights[1].environment.map" && e.message.contains("limit of 128"), "{e}");
+    assert!(compile(&with_environment(r#"{"sky": {"resolution": 16}}"#), &limits, None).is_ok());
+    let e = env_error(r#"{"sky": {"resolution": 18}}"#, &limits);
+    assert!(e.field.ends_with("sky.resolution") && e.message.contains("limit of 128"), "{e}");
+    // The default sky (512 x 256) is over this limit too: the limit is never skipped.
+    let e = env_error(r#"{"sky": {}}"#, &limits);
+    assert!(e.message.contains("limit of 128"), "{e}");
+}
+
+#[test]
+fn map_files_resolve_inside_the_root_only_and_name_the_file() {
+    let dir = std::env::temp_dir().join(format!("wedge-maproot-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("maps")).unwrap();
+    let pixels = vec![image::Rgb([0.25f32, 0.5, 1.0]); 8];
+    let file = std::fs::File::create(dir.join("maps/sky.hdr")).unwrap();
+    image::codecs::hdr::HdrEncoder::new(file).encode(&pixels, 4, 2).unwrap();
+    let limits = SceneLimits { mesh_root: Some(dir.clone()), ..SceneLimits::default() };
+    let s = with_environment(r#"{"path": "maps/sky.hdr"}"#);
+    let c = compile(&s, &limits, Some(&dir)).unwrap();
+    assert_eq!(c.background(Vec3::Y), Vec3::new(0.25, 0.5, 1.0));
+    // Outside the root: refused. A broken file: refused, with its name.
+    std::fs::write(dir.join("broken.hdr"), "#?RADIANCE\nnot a header").unwrap();
+    let inner = dir.join("maps");
+    let limits = SceneLimits { mesh_root: Some(inner.clone()), ..SceneLimits::default() };
+    let e = compile(&with_environment(r#"{"path": "../broken.hdr"}"#), &limits, Some(&inner)).map(|_| ()).unwrap_err();
+    assert!(e.message.contains("outside the allowed root"), "{e}");
+    let limits = SceneLimits { mesh_root: Some(dir.clone()), ..SceneLimits::default() };
+    let e = compile(&with_environment(r#"{"path": "broken.hdr"}"#), &limits, Some(&dir)).map(|_| ()).unwrap_err();
+    assert!(e.field == "scene.lights[1].environment.path" && e.message.contains("broken.hdr"), "{e}");
+    // What `wedge client` sends instead: the same map inline.
+    let mut inlined = with_environment(r#"{"path": "maps/sky.hdr"}"#);
+    crate::scene::inline_files(&mut inlined, &dir, &dir, &SceneLimits::default()).unwrap();
+    let c = compile(&inlined, &SceneLimits::default(), None).unwrap();
+    assert_eq!(c.background(Vec3::Y), Vec3::new(0.25, 0.5, 1.0));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

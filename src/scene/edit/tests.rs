@@ -49,7 +49,7 @@ fn glossy(name: &str) -> proto::Material {
 }
 
 fn rect_light(scene: &proto::Scene, shift_x: f32, radiance: f32) -> proto::Light {
-    let mut l = scene.lights[0];
+    let mut l = scene.lights[0].clone();
     let Some(proto::light::Kind::Rect(r)) = l.kind.as_mut() else { panic!("cornell's light is a rect") };
     r.corner.as_mut().unwrap().x += shift_x;
     r.radiance = Some(proto::Rgb { r: radiance, g: radiance, b: radiance });
@@ -61,7 +61,7 @@ fn a_material_edit_renders_as_a_fresh_compile_and_shares_the_bvh() {
     let source = cornell();
     let before = compiled(&source);
     let edit = proto::SceneEdit { materials: vec![glossy("red")], lights: vec![] };
-    let (header, after) = apply(&super::header(&source), &before, &edit).unwrap();
+    let (header, after) = apply(&super::header(&source), &before, &edit, &SceneLimits::default()).unwrap();
     assert!(Arc::ptr_eq(&after.geometry, &before.geometry), "the BVH is shared");
     assert_eq!(header.materials.iter().find(|m| m.name == "red"), Some(&glossy("red")));
     let mut edited = source.clone();
@@ -78,8 +78,9 @@ fn a_moved_light_refits_the_bvh_and_renders_as_a_fresh_compile() {
     let before = compiled(&source);
     // Within the box's bounds, so the fresh compile has the same internal frame.
     let light = rect_light(&source, -60.0, 12.0);
-    let edit = proto::SceneEdit { materials: vec![], lights: vec![proto::LightEdit { index: 0, light: Some(light) }] };
-    let (_, after) = apply(&super::header(&source), &before, &edit).unwrap();
+    let edit =
+        proto::SceneEdit { materials: vec![], lights: vec![proto::LightEdit { index: 0, light: Some(light.clone()) }] };
+    let (_, after) = apply(&super::header(&source), &before, &edit, &SceneLimits::default()).unwrap();
     assert!(!Arc::ptr_eq(&after.geometry, &before.geometry), "moved light triangles need new geometry");
     let mut edited = source.clone();
     edited.lights[0] = light;
@@ -93,7 +94,7 @@ fn a_moved_light_refits_the_bvh_and_renders_as_a_fresh_compile() {
         materials: vec![],
         lights: vec![proto::LightEdit { index: 0, light: Some(rect_light(&source, 0.0, 5.0)) }],
     };
-    let (_, dimmer) = apply(&super::header(&source), &before, &edit).unwrap();
+    let (_, dimmer) = apply(&super::header(&source), &before, &edit, &SceneLimits::default()).unwrap();
     assert!(Arc::ptr_eq(&dimmer.geometry, &before.geometry));
 }
 
@@ -101,7 +102,9 @@ fn a_moved_light_refits_the_bvh_and_renders_as_a_fresh_compile() {
 fn bad_edits_name_their_field_and_change_nothing() {
     let source = cornell();
     let before = compiled(&source);
-    let refuse = |edit: proto::SceneEdit| apply(&super::header(&source), &before, &edit).map(|_| ()).unwrap_err().field;
+    let refuse = |edit: proto::SceneEdit| {
+        apply(&super::header(&source), &before, &edit, &SceneLimits::default()).map(|_| ()).unwrap_err().field
+    };
     let mats = |m: proto::Material| proto::SceneEdit { materials: vec![m], lights: vec![] };
     let lights = |index: u32, light: Option<proto::Light>| proto::SceneEdit {
         materials: vec![],

@@ -1,0 +1,215 @@
+//! Piecewise-constant distributions in one and two dimensions, sampled by inverting their
+//! distribution functions (pbrt-v4 Sec. A.1 and A.5): what the environment light draws its
+//! directions from.
+
+/// A piecewise-constant density on [0, 1) with `n` equal segments.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Distribution1D {
+    /// The (non-negative) segment values.
+    func: Vec<f32>,
+    /// Distribution function at k / n, from 0 to 1 (f64: long tables of small values would
+    /// lose their increments in f32).
+    cdf: Vec<f64>,
+    /// The integral of `func` over [0, 1).
+    integral: f64,
+}
+
+impl Distribution1D {
+    /// A distribution proportional to `func`: negative or non-finite values count as 0, and
+    /// an all-zero table becomes uniform (so that sampling is always defined; callers that
+    /// care check `integral`).
+    pub fn new(func: &[f32]) -> Self {
+        assert!(!func.is_empty(), "a distribution needs at least one segment");
+        let func: Vec<f32> = func.iter().map(|&f| if f.is_finite() && f > 0.0 { f } else { 0.0 }).collect();
+        let n = func.len() as f64;
+        let mut cdf = Vec::with_capacity(func.len() + 1);
+        let mut sum = 0.0f64;
+        cdf.push(0.0);
+        for &f in &func {
+            sum += f as f64 / n;
+            cdf.push(sum);
+        }
+        let integral = sum;
+        if integral > 0.0 {
+            cdf.iter_mut().for_each(|c| *c /= integral);
+        } else {
+            cdf.iter_mut().enumerate().for_each(|(k, c)| *c = k as f64 / n);
+        }
+        *cdf.last_mut().expect("n + 1 entries") = 1.0;
+        Distribution1D { func, cdf, integral }
+    }
+
+    pub fn len(&self) -> usize {
+        self.func.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.func.is_empty()
+    }
+
+    /// The integral of the (cleaned) function over [0, 1).
+    pub fn integral(&self) -> f64 {
+        self.integral
+    }
+
+    /// Density at segment `k`.
+    #[inline]
+    pub fn pdf_of(&self, k: usize) -> f32 {
+        if self.integral > 0.0 {
+            (self.func[k] as f64 / self.integral) as f32
+        } else {
+            1.0
+        }
+    }
+
+    /// Maps `u` in [0, 1) to (x in [0, 1), its density, its segment). Monotone in `u`, so
+    /// stratified values stay stratified. Never lands in a segment of zero density.
+    #[inline]
+    pub fn sample(&self, u: f32) -> (f32, f32, usize) {
+        let n = self.func.len();
+        let u = (u as f64).clamp(0.0, 1.0);
+        // The last k with cdf[k] <= u, among segments of positive mass.
+        let mut k = self.cdf.partition_point(|&c| c <= u).saturating_sub(1).min(n - 1);
+        while k > 0 && self.cdf[k + 1] - self.cdf[k] <= 0.0 {
+            k -= 1;
+        }
+        while k + 1 < n && self.cdf[k + 1] - self.cdf[k] <= 0.0 {
+            k += 1;
+        }
+        let mass = self.cdf[k + 1] - self.cdf[k];
+        let t = if mass > 0.0 { ((u - self.cdf[k]) / mass).clamp(0.0, 1.0) } else { 0.5 };
+        // Kept strictly below 1 (f32 rounding of (n - 1 + t) / n can reach it).
+        let x = (((k as f64 + t) / n as f64) as f32).min(1.0 - f32::EPSILON / 2.0);
+        (x, self.pdf_of(k), k)
+    }
+}
+
+/// A piecewise-constant density on [0, 1)^2 over a `width` x `height` grid: a marginal
+/// distribution over rows and one conditional distribution per row.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Distribution2D {
+    rows: Vec<Distribution1D>,
+    marginal: Distribution1D,
+}
+
+impl Distribution2D {
+    /// `func` is row-major, `height` rows of `width` values.
+    pub fn new(func: &[f32], width: usize, height: usize) -> Self {
+        assert!(width > 0 && height > 0 && func.len() == width * height, "a {width} x {height} table");
+        let rows: Vec<Distribution1D> = func.chunks_exact(width).map(Distribution1D::new).collect();
+        let marginal = Distribution1D::new(&rows.iter().map(|r| r.integral() as f32).collect::<Vec<_>>());
+        Distribution2D { rows, marginal }
+    }
+
+    /// The integral of the table over [0, 1)^2.
+    pub fn integral(&self) -> f64 {
+        self.marginal.integral()
+    }
+
+    /// Maps `u` to a point (x, y) in [0, 1)^2 and its density.
+    #[inline]
+    pub fn sample(&self, u: [f32; 2]) -> ([f32; 2], f32) {
+        let (y, pdf_y, row) = self.marginal.sample(u[1]);
+        let (x, pdf_x, _) = self.rows[row].sample(u[0]);
+        ([x, y], pdf_x * pdf_y)
+    }
+
+    /// Density at point (x, y) in [0, 1)^2.
+    #[inline]
+    pub fn pdf(&self, p: [f32; 2]) -> f32 {
+        let h = self.rows.len();
+        let w = self.rows[0].len();
+        let row = ((p[1] * h as f32) as usize).min(h - 1);
+        let col = ((p[0] * w as f32) as usize).min(w - 1);
+        self.marginal.pdf_of(row) * self.rows[row].pdf_of(col)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn samples_follow_the_table_and_the_density_integrates_to_one() {
+        let func = [0.0, 1.0, 3.0, 0.0, 4.0];
+        let d = Distribution1D::new(&func);
+        assert!((d.integral() - 8.0 / 5.0).abs() < 1e-12);
+        let integral: f64 = (0..5).map(|k| d.pdf_of(k) as f64 / 5.0).sum();
+        assert!((integral - 1.0).abs() < 1e-6);
+        // Stratified u: each segment receives its share of the mass, none lands on a zero.
+        let n = 8000;
+        let mut counts = [0usize; 5];
+        for i in 0..n {
+            let (x, pdf, k) = d.sample((i as f32 + 0.5) / n as f32);
+            assert_eq!(k, (x * 5.0) as usize);
+            assert!(pdf > 0.0 && func[k] > 0.0, "sampled a zero segment {k}");
+            counts[k] += 1;
+        }
+        for k in 0..5 {
+            let expected = func[k] as f64 / 8.0 * n as f64;
+            assert!((counts[k] as f64 - expected).abs() <= 1.0, "segment {k}: {} vs {expected}", counts[k]);
+        }
+    }
+
+    #[test]
+    fn sampling_is_monotone_and_stays_inside_the_unit_interval() {
+        let d = Distribution1D::new(&[1e-30, 5.0, 1e-30, 2.0]);
+        let mut last = -1.0f32;
+        for i in 0..=1000 {
+            let u = (i as f32 / 1000.0).min(1.0 - f32::EPSILON / 2.0);
+            let (x, _, _) = d.sample(u);
+            assert!((0.0..1.0).contains(&x) && x >= last, "u {u} x {x} last {last}");
+            last = x;
+        }
+        assert!(d.sample(1.0).0 < 1.0);
+    }
+
+    #[test]
+    fn a_table_of_zeros_or_junk_gives_the_uniform_density() {
+        for func in [[0.0f32; 4], [f32::NAN, -1.0, f32::NEG_INFINITY, 0.0]] {
+            let d = Distribution1D::new(&func);
+            assert_eq!(d.integral(), 0.0);
+            for k in 0..4 {
+                assert_eq!(d.pdf_of(k), 1.0);
+            }
+            let (x, pdf, k) = d.sample(0.6);
+            assert!((x - 0.6).abs() < 1e-6 && pdf == 1.0 && k == 2);
+        }
+    }
+
+    #[test]
+    fn the_2d_density_matches_its_samples_and_integrates_to_one() {
+        let (w, h) = (6, 4);
+        let func: Vec<f32> = (0..w * h).map(|i| ((i * 7) % 5) as f32).collect();
+        let d = Distribution2D::new(&func, w, h);
+        let total: f32 = func.iter().sum();
+        let mut integral = 0.0f64;
+        for r in 0..h {
+            for c in 0..w {
+                let p = d.pdf([(c as f32 + 0.5) / w as f32, (r as f32 + 0.5) / h as f32]);
+                // The density of a cell is its share of the table times the cell count.
+                assert!((p - func[r * w + c] / total * (w * h) as f32).abs() < 1e-5);
+                integral += p as f64 / (w * h) as f64;
+            }
+        }
+        assert!((integral - 1.0).abs() < 1e-6);
+        // A stratified grid of u lands in each cell in proportion to its value, with the
+        // density `pdf` reports there.
+        let n = 200;
+        let mut counts = vec![0usize; w * h];
+        for i in 0..n {
+            for j in 0..n {
+                let u = [(i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32];
+                let (p, pdf) = d.sample(u);
+                let cell = ((p[1] * h as f32) as usize) * w + (p[0] * w as f32) as usize;
+                assert!(func[cell] > 0.0);
+                assert!((pdf - d.pdf(p)).abs() < 1e-5);
+                counts[cell] += 1;
+            }
+        }
+        for cell in 0..w * h {
+            let expected = func[cell] / total * (n * n) as f32;
+            assert!((counts[cell] as f32 - expected).abs() <= 0.02 * (n * n) as f32, "cell {cell}");
+        }
+    }
+}
