@@ -76,3 +76,48 @@ async fn the_render_slot_is_taken_before_the_request_is_read() {
     // A refused request gives its slot back: a small one renders.
     collect(&mut server.client().await, cornell(8, 6, 1, 1)).await.expect("renders");
 }
+
+/// The built-in Cornell box lit also by an environment light.
+fn cornell_with_environment(env: wedge::proto::EnvironmentLight) -> RenderRequest {
+    let mut scene = wedge::scene::builtin::get("cornell").expect("cornell");
+    scene.lights.push(wedge::proto::Light { kind: Some(wedge::proto::light::Kind::Environment(env)) });
+    let mut req = cornell(8, 6, 1, 1);
+    req.scene_source = Some(SceneSource::Scene(scene));
+    req
+}
+
+fn inline_map(width: u32, height: u32) -> wedge::proto::EnvironmentLight {
+    use wedge::proto::environment_light::Radiance;
+    let rgb = vec![0.5; (3 * width * height) as usize];
+    wedge::proto::EnvironmentLight {
+        radiance: Some(Radiance::Map(wedge::proto::EnvironmentMap { width, height, rgb })),
+        ..Default::default()
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_environment_map_over_the_texel_limit_is_invalid_argument() {
+    let limits = wedge::api::request::Limits { max_environment_texels: 64, ..Default::default() };
+    let server = TestServer::with_config(ServerConfig { limits, ..Default::default() }).await;
+    let ok = collect(&mut server.client().await, cornell_with_environment(inline_map(8, 8))).await;
+    assert!(ok.expect("a map at the limit renders").frames.last().unwrap().stats.is_final);
+    let err = server.client().await.render(cornell_with_environment(inline_map(16, 8))).await.expect_err("over");
+    assert_eq!(err.code(), Code::InvalidArgument, "{err:?}");
+    let text = err.message();
+    assert!(text.contains("scene.lights[1].environment.map") && text.contains("limit of 64"), "{text}");
+    // The sky is baked into a map: the same limit holds (its default 512 x 256 is over 64).
+    let sky = wedge::proto::EnvironmentLight {
+        radiance: Some(wedge::proto::environment_light::Radiance::Sky(Default::default())),
+        ..Default::default()
+    };
+    let err = server.client().await.render(cornell_with_environment(sky)).await.expect_err("over");
+    assert!(err.message().contains("sky.resolution") && err.message().contains("limit of 64"), "{}", err.message());
+    // A server reads no files for a request: a map path is refused, by name.
+    let path = wedge::proto::EnvironmentLight {
+        radiance: Some(wedge::proto::environment_light::Radiance::Path("/etc/passwd.hdr".into())),
+        ..Default::default()
+    };
+    let err = server.client().await.render(cornell_with_environment(path)).await.expect_err("a path");
+    assert_eq!(err.code(), Code::InvalidArgument, "{err:?}");
+    assert!(err.message().contains("scene.lights[1].environment.path"), "{}", err.message());
+}

@@ -3,6 +3,7 @@
 pub mod aaf_indirect;
 pub mod aaf_shadows;
 pub mod auto;
+pub mod bandwidth;
 pub mod lobe_aware;
 pub mod mode;
 pub mod parts;

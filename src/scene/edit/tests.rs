@@ -130,3 +130,40 @@ fn bad_edits_name_their_field_and_change_nothing() {
     }
     assert_eq!(refuse(lights(0, Some(flat))), "edit.lights[0].light.rect.edge_u");
 }
+
+#[test]
+fn environment_edits_render_as_fresh_compiles_and_untouched_maps_are_kept() {
+    use crate::render::environment::EnvironmentRadiance;
+    use crate::render::light::Light;
+    let mut source = cornell();
+    source.lights.push(light(r#"{"environment": {"sky": {"resolution": 32}}}"#));
+    let before = compiled(&source);
+    let map_of = |s: &Scene| match &s.lights[1] {
+        Light::Environment(e) => match &e.radiance {
+            EnvironmentRadiance::Map(m) => Arc::clone(m),
+            EnvironmentRadiance::Constant(_) => panic!("a map"),
+        },
+        _ => panic!("an environment light"),
+    };
+    // A material edit leaves the sky alone: its compiled map is kept, not baked again.
+    let edit = proto::SceneEdit { materials: vec![glossy("red")], lights: vec![] };
+    let (_, after) = apply(&super::header(&source), &before, &edit, &SceneLimits::default()).unwrap();
+    assert!(Arc::ptr_eq(&map_of(&after), &map_of(&before)));
+    // Editing the sky itself gives what a fresh compile of the edited scene gives.
+    let brighter = light(r#"{"environment": {"sky": {"resolution": 32}, "scale": 3, "rotationDeg": 40}}"#);
+    let edit = proto::SceneEdit {
+        materials: vec![],
+        lights: vec![proto::LightEdit { index: 1, light: Some(brighter.clone()) }],
+    };
+    let (_, after) = apply(&super::header(&source), &before, &edit, &SceneLimits::default()).unwrap();
+    let mut edited = source.clone();
+    edited.lights[1] = brighter;
+    assert_eq!(image(after), image(compiled(&edited)));
+    // Another kind in its place is refused by name.
+    let edit = proto::SceneEdit {
+        materials: vec![],
+        lights: vec![proto::LightEdit { index: 1, light: Some(source.lights[0].clone()) }],
+    };
+    let e = apply(&super::header(&source), &before, &edit, &SceneLimits::default()).map(|_| ()).unwrap_err();
+    assert_eq!(e.field, "edit.lights[0].light");
+}
