@@ -46,11 +46,14 @@ impl Filter {
 /// What the negligible share is measured against.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Reference {
-    /// The largest coefficient covering the texel (Appendix A, read per point).
-    #[default]
+    /// The largest coefficient covering the texel (Appendix A, read per point). Far out on a
+    /// smooth falloff (a lobe's tail, a dim sky) the coefficients are all tiny, and their
+    /// relative structure reads as detail: the tail of a Gaussian has a local frequency that
+    /// grows with the distance from its peak.
     Local,
-    /// The largest coefficient anywhere in the image: dim regions then count as smooth
-    /// rather than as holding detail at their own small scale.
+    /// The largest coefficient anywhere in the image (the default, methods.md §4.3's
+    /// experiment): detail counts in proportion to what it adds to the image as a whole.
+    #[default]
     Global,
 }
 
@@ -59,19 +62,20 @@ pub const EPSILON: f64 = 0.01;
 
 /// The basis whose coefficients the estimator compares across levels.
 ///
-/// Appendix A writes the signal over `2^-i psi((x - 2^i j) / 2^i)`, functions of unit area.
-/// Their coefficients grow by 2 per level for an edge in 2-D, so that against the coarse
-/// levels' coefficients a sharp edge in an image reads as smooth: three octaves too low at a
-/// 512-texel step (the test below). `Amplitude` (the default, a departure) compares how much
-/// each level adds to the signal's value: a step has the same coefficient at every level and
-/// reads as sharp at its edge, and a sinusoid is over-estimated by 3.6 octaves instead of 2.6
-/// (leakage), the conservative side the paper chooses (Sec. 4.1).
+/// Appendix A writes the signal over `2^-i psi((x - 2^i j) / 2^i)`, functions of unit area
+/// (`UnitArea`, the default). Coarse levels' coefficients then weigh more than fine ones', by
+/// 2^(1/2) per level and axis over the orthonormal ones: a sinusoid reads 2.6 octaves high
+/// with db4 (leakage), a Gaussian bump of 4 texels' deviation 2 octaves high at its peak; but
+/// a sharp edge in an image reads three octaves smoother than it is (the test below).
+/// `Amplitude` compares how much each level adds to the signal's value: an edge is as sharp
+/// as the texels, but a sinusoid reads 3.6 octaves high and the Gaussian bump 4 (its finest
+/// levels hold a few percent of its amplitude). Neither is right everywhere; methods.md §4.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Basis {
     /// `2^(-i/2) psi`, unit peak per axis: coefficients are the amplitudes of each level.
-    #[default]
     Amplitude,
     /// `2^-i psi`, unit area: Appendix A as printed.
+    #[default]
     UnitArea,
 }
 
