@@ -29,7 +29,7 @@ pub struct DirectionBand {
 /// Eq. 4 and Eq. 8 over a pixel's directions: its bandwidth and its variance bound.
 ///
 /// Eq. 4 as printed divides by the sum of `L_i` alone, so its weights `L_i rho cos` do not
-/// sum to 1; `normalised` divides by their own sum instead (methods.md §4.2). Either way a
+/// sum to 1; `normalised` divides by their own sum instead (methods.md §4.1). Either way a
 /// pixel that receives no light gets bandwidth 0 (never 0 / 0). Directions drawn by
 /// importance carry 1 / pdf in every sum (Eq. 4 and 8 are written for uniform directions).
 pub fn pixel_bandwidth(directions: &[DirectionBand], normalised: bool) -> (Nu, f64) {

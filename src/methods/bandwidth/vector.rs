@@ -18,7 +18,7 @@
 pub const QUANTILE_95: f64 = 1.644_853_626_951_472_2;
 
 /// Smallest cosine the reparameterisations divide by: at grazing angles `P_x`'s 1 / cos
-/// grows without bound (methods.md §4.5), and the image-space bandwidth is clamped later.
+/// grows without bound (methods.md §4.1), and the image-space bandwidth is clamped later.
 pub const MIN_COS: f64 = 1e-3;
 
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -11,7 +11,7 @@
 //! level that matters (conservative, as the paper's `b_w = 2^{I_w}`). Which basis the
 //! coefficients are measured in decides what "negligible" means (`Basis`). The paper's filter,
 //! "Daubechies of order 4", is ambiguous: `Filter::Db4` (8 taps, the default: it leaks less
-//! into finer levels) or `Filter::D4` (4 taps); methods.md §4.3.
+//! into finer levels) or `Filter::D4` (4 taps); methods.md §4.1.
 
 /// The Daubechies low-pass filter (orthonormal: taps sum to sqrt 2).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -51,8 +51,8 @@ pub enum Reference {
     /// relative structure reads as detail: the tail of a Gaussian has a local frequency that
     /// grows with the distance from its peak.
     Local,
-    /// The largest coefficient anywhere in the image (the default, methods.md §4.3's
-    /// experiment): detail counts in proportion to what it adds to the image as a whole.
+    /// The largest coefficient anywhere in the image (the default): detail counts in
+    /// proportion to what it adds to the image as a whole.
     #[default]
     Global,
 }
@@ -229,8 +229,8 @@ mod tests {
     #[test]
     fn a_sinusoids_bandwidth_rises_with_its_frequency_and_bounds_it() {
         // Leakage into finer levels makes the estimate conservative. With db4: 2.6 octaves
-        // above the true frequency in the unit-area basis (methods.md §4.6 asks for at most
-        // three), 3.6 in the amplitude basis; D4 leaks one to two octaves more.
+        // above the true frequency in the unit-area basis (the oracle asks for at most three),
+        // 3.6 in the amplitude basis; D4 leaks one to two octaves more.
         for (filter, basis, most) in [
             (Filter::Db4, Basis::UnitArea, 8.0),
             (Filter::Db4, Basis::Amplitude, 16.0),
