@@ -497,8 +497,7 @@ mod tests {
         assert!(lit[3] < lit[0] / (1.0 - a as f64), "{lit:?}");
     }
 
-    /// `floor_scene` with an environment light added (the floor's own light stays off:
-    /// radiance 0).
+    /// A 4 x 4 floor of `material` under the environment light alone, seen from above.
     fn floor_under(env: EnvironmentLight, material: Material) -> Scene {
         let mut b = SceneBuilder::new(CameraDesc {
             position: Vec3::new(0.2, 3.0, 0.1),
