@@ -1,6 +1,6 @@
 //! Validates a proto `Scene` and compiles it into the tracer's scene, in one walk, so that every
 //! field the tracer reads has been checked and every error names its field.
-use super::fields::{direction, enum_value, err, finite, in_range, positive, rgb, vec3, FieldResult};
+use super::fields::{direction, enum_value, err, finite, in_range, positive, resolve_file, rgb, vec3, FieldResult};
 use super::meshfile;
 use super::shapes::{self, TriMesh};
 use super::SceneLimits;
@@ -15,9 +15,8 @@ use std::path::Path;
 
 /// Largest Phong/Blinn-Phong exponent accepted (beyond it the lobe is a mirror in f32).
 pub const MAX_EXPONENT: f32 = 1e6;
-/// Largest light radiance and intensity: far beyond any real light, yet small enough that
-/// radiance times geometry terms cannot overflow f32 into infinity.
-pub const MAX_RADIANCE: f32 = 1e9;
+pub use super::fields::MAX_RADIANCE;
+/// Largest point-light intensity (see `MAX_RADIANCE`).
 pub const MAX_INTENSITY: f32 = 1e12;
 
 pub fn compile(scene: &proto::Scene, limits: &SceneLimits, base_dir: Option<&Path>) -> FieldResult<Scene> {
@@ -387,18 +386,6 @@ pub(crate) fn load_mesh_file(
 ) -> FieldResult<meshfile::MeshData> {
     let resolved = resolve_file(path, file, root, base)?;
     meshfile::load_mesh(&resolved, budget).or_else(|e| err(path, e.to_string()))
-}
-
-/// A file named by a scene file (a mesh, an environment map): relative to the scene's
-/// directory `base`, and refused unless it lies inside `root` once links are resolved.
-pub(crate) fn resolve_file(path: &str, file: &str, root: &Path, base: &Path) -> FieldResult<std::path::PathBuf> {
-    let full = base.join(file);
-    let resolved = full.canonicalize().or_else(|e| err(path, format!("cannot open {}: {e}", full.display())))?;
-    let root = root.canonicalize().or_else(|e| err(path, format!("file root {}: {e}", root.display())))?;
-    if !resolved.starts_with(&root) {
-        return err(path, format!("{} is outside the allowed root {}", resolved.display(), root.display()));
-    }
-    Ok(resolved)
 }
 
 fn mesh_file(

@@ -1,7 +1,6 @@
 //! Validates a proto `EnvironmentLight` and builds the tracer's light: its radiance from a
 //! constant, a map file, an inline map or the procedural sky, then scale and orientation.
-use super::compile::{resolve_file, MAX_RADIANCE};
-use super::fields::{err, finite, in_range, opt_vec3, rgb, FieldResult};
+use super::fields::{err, finite, in_range, opt_vec3, resolve_file, rgb, FieldResult, MAX_RADIANCE};
 use super::SceneLimits;
 use crate::proto;
 use crate::render::environment::{EnvironmentLight, EnvironmentRadiance, LatLongMap};

@@ -2,8 +2,13 @@
 use super::FieldError;
 use crate::proto;
 use glam::Vec3;
+use std::path::{Path, PathBuf};
 
 pub type FieldResult<T> = Result<T, FieldError>;
+
+/// Largest light radiance and intensity: far beyond any real light, yet small enough that
+/// radiance times geometry terms cannot overflow f32 into infinity.
+pub const MAX_RADIANCE: f32 = 1e9;
 
 pub fn err<T>(field: impl Into<String>, message: impl Into<String>) -> FieldResult<T> {
     Err(FieldError { field: field.into(), message: message.into() })
@@ -78,4 +83,16 @@ pub fn in_range(path: &str, v: f32, lo: f32, hi: f32) -> FieldResult<f32> {
 /// An enum field's value, which proto3 lets be any integer.
 pub fn enum_value<E: TryFrom<i32>>(path: &str, v: i32) -> FieldResult<E> {
     E::try_from(v).or_else(|_| err(path, format!("unknown value {v}")))
+}
+
+/// A file named by a scene file (a mesh, an environment map): relative to the scene's
+/// directory `base`, and refused unless it lies inside `root` once links are resolved.
+pub(crate) fn resolve_file(path: &str, file: &str, root: &Path, base: &Path) -> FieldResult<PathBuf> {
+    let full = base.join(file);
+    let resolved = full.canonicalize().or_else(|e| err(path, format!("cannot open {}: {e}", full.display())))?;
+    let root = root.canonicalize().or_else(|e| err(path, format!("file root {}: {e}", root.display())))?;
+    if !resolved.starts_with(&root) {
+        return err(path, format!("{} is outside the allowed root {}", resolved.display(), root.display()));
+    }
+    Ok(resolved)
 }

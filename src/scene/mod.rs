@@ -46,7 +46,7 @@ pub fn inline_files(
         let Some(proto::light::Kind::Environment(e)) = &mut light.kind else { continue };
         let Some(proto::environment_light::Radiance::Path(file)) = &e.radiance else { continue };
         let field = format!("scene.lights[{i}].environment.path");
-        let resolved = compile::resolve_file(&field, file, root, base_dir)?;
+        let resolved = fields::resolve_file(&field, file, root, base_dir)?;
         let data = envmap::load_map(&resolved, limits.max_environment_texels)
             .map_err(|message| FieldError { field: field.clone(), message })?;
         e.radiance = Some(proto::environment_light::Radiance::Map(proto::EnvironmentMap {

@@ -3,11 +3,13 @@
 //! the environment, the BRDF and the texture carried through the surface's geometry to the eye
 //! (`vector`); the bandwidths of environment maps (`illumination`) and BRDF lobes (`brdf`)
 //! from wavelets (`wavelet`); what they decide, per pixel and per pyramid level (`levels`),
-//! and how unshaded pixels take their parents' values (`upsample`).
+//! and how unshaded pixels take their parents' values (`upsample`); the surface curvature the
+//! shear `C_c` needs, measured on the G-buffer (`curvature`).
 //!
 //! Being built: the analysis is here and tested; the strategy that shades with it (levels,
 //! sample counts, coarse-to-fine shading) is not in the registry yet (docs/methods.md §4).
 pub mod brdf;
+pub mod curvature;
 pub mod illumination;
 pub mod levels;
 pub mod upsample;
