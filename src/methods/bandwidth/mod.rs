@@ -1,8 +1,8 @@
 //! Bandwidth prediction and multiresolution shading (Bagher, Soler, Subr, Belcour, Holzschuch
 //! 2012): per pixel, the local bandwidth of the reflected light field from the bandwidths of
 //! the environment, the BRDF and the texture carried through the surface's geometry to the eye
-//! (`vector`); the bandwidths of environment maps (`illumination`) and BRDF lobes (`brdf`)
-//! from wavelets (`wavelet`); what they decide, per pixel and per pyramid level (`levels`),
+//! (`vector`); the bandwidths of environment maps (`illumination`), BRDF lobes (`brdf`) and
+//! textures (`texture`) from wavelets (`wavelet`); what they decide, per pixel and per pyramid level (`levels`),
 //! and how unshaded pixels take their parents' values (`upsample`); the surface curvature the
 //! shear `C_c` needs, measured on the G-buffer (`curvature`).
 //!
@@ -12,6 +12,7 @@ pub mod brdf;
 pub mod curvature;
 pub mod illumination;
 pub mod levels;
+pub mod texture;
 pub mod upsample;
 pub mod vector;
 pub mod wavelet;
