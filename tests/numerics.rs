@@ -223,6 +223,7 @@ proptest! {
         }
         let scene = Arc::new(compile(&s, &SceneLimits::default(), None).expect("valid scene"));
         let job = RenderJob {
+bandwidth: Default::default(),
             view: scene.default_view(),
             scene,
             method,

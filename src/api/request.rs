@@ -175,6 +175,7 @@ pub fn prepare_compiled(
     let cam = header.camera.as_ref().map(camera_info).unwrap_or_default();
     Ok(PreparedJob {
         job: RenderJob {
+            bandwidth: Default::default(),
             view,
             scene: compiled,
             method,

@@ -7,7 +7,7 @@
 //! then the denoiser inputs `albedo` (3), `normal` (3) and `depth` (1). When that leaves
 //! nothing, `color` alone. Pixels are row-major, channels interleaved, little-endian
 //! f32 or f16.
-use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats, HaltReason};
+use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats, HaltReason, ShadingMaps};
 use crate::proto::{
     self, render_update, FrameChunk, FrameComplete, OutputSelection, PixelFormat, RenderStarted, RenderUpdate,
 };
@@ -39,6 +39,9 @@ pub enum LayerKind {
     Albedo,
     Normal,
     Depth,
+    /// The `bandwidth` method's maps (`pipeline::frame::ShadingMaps`).
+    Bandwidth,
+    Level,
 }
 
 impl LayerKind {
@@ -46,6 +49,8 @@ impl LayerKind {
     pub const BASE: [LayerKind; 4] = [LayerKind::Color, LayerKind::Spp, LayerKind::FilterWidth, LayerKind::Unfiltered];
     /// The denoiser inputs, which follow the component layers.
     pub const AOVS: [LayerKind; 3] = [LayerKind::Albedo, LayerKind::Normal, LayerKind::Depth];
+    /// The shading maps of methods that shade at a predicted rate, which follow the AOVs.
+    pub const SHADING: [LayerKind; 2] = [LayerKind::Bandwidth, LayerKind::Level];
 
     /// The layer's name, without the `.<component>` suffix of component layers.
     pub fn stem(self) -> &'static str {
@@ -57,18 +62,21 @@ impl LayerKind {
             LayerKind::Albedo => "albedo",
             LayerKind::Normal => "normal",
             LayerKind::Depth => "depth",
+            LayerKind::Bandwidth => "bandwidth",
+            LayerKind::Level => "level",
         }
     }
 
     /// The base layer of that name (component layers need their component: see `LayerSpec`).
     pub fn from_name(name: &str) -> Option<LayerKind> {
-        Self::BASE.into_iter().chain(Self::AOVS).find(|k| k.stem() == name)
+        Self::BASE.into_iter().chain(Self::AOVS).chain(Self::SHADING).find(|k| k.stem() == name)
     }
 
     pub fn channels(self) -> usize {
         match self {
             LayerKind::Color | LayerKind::Unfiltered | LayerKind::Albedo | LayerKind::Normal => 3,
             LayerKind::Spp | LayerKind::FilterWidth | LayerKind::Depth => 1,
+            LayerKind::Bandwidth | LayerKind::Level => 1,
             LayerKind::ComponentSpp(_) | LayerKind::ComponentFilterWidth(_) => 1,
         }
     }
@@ -83,6 +91,8 @@ impl LayerKind {
             LayerKind::Albedo => sel.albedo,
             LayerKind::Normal => sel.normal,
             LayerKind::Depth => sel.depth,
+            LayerKind::Bandwidth => sel.bandwidth,
+            LayerKind::Level => sel.level,
         }
     }
 }
@@ -123,6 +133,7 @@ pub fn selected_layers(sel: &OutputSelection, components: &[&str]) -> Vec<LayerS
         }
     }
     layers.extend(LayerKind::AOVS.into_iter().filter(|k| k.selected(sel)).map(LayerSpec::base));
+    layers.extend(LayerKind::SHADING.into_iter().filter(|k| k.selected(sel)).map(LayerSpec::base));
     if layers.is_empty() {
         layers.push(LayerSpec::base(LayerKind::Color));
     }
@@ -187,6 +198,8 @@ pub fn check_frame(frame: &Frame, sel: &OutputSelection, components: &[&str]) ->
         ("spp", Some(frame.spp.len())),
         ("unfiltered", frame.unfiltered.as_ref().map(Vec::len)),
         ("filter_width", frame.filter_width.as_ref().map(Vec::len)),
+        ("bandwidth", frame.shading.as_ref().map(|m| m.bandwidth.len())),
+        ("level", frame.shading.as_ref().map(|m| m.level.len())),
     ];
     for (name, len) in lens {
         if let Some(len) = len.filter(|&len| len != n) {
@@ -263,6 +276,8 @@ pub fn encode_rows(frame: &Frame, sel: &OutputSelection, components: &[&str], y0
                 LayerKind::Albedo => rgb(&mut data, frame.aovs.as_deref().map(|a| a.albedo.as_slice())),
                 LayerKind::Normal => rgb(&mut data, frame.aovs.as_deref().map(|a| a.normal.as_slice())),
                 LayerKind::Depth => scalars(&mut data, frame.aovs.as_deref().map(|a| a.depth.as_slice())),
+                LayerKind::Bandwidth => scalars(&mut data, frame.shading.as_ref().map(|m| m.bandwidth.as_slice())),
+                LayerKind::Level => scalars(&mut data, frame.shading.as_ref().map(|m| m.level.as_slice())),
             }
             proto::Layer { name: layer.name, channels: kind.channels() as u32, data }
         })
@@ -302,6 +317,8 @@ impl From<&FrameStats> for FrameComplete {
             method_seconds: stats.method_seconds,
             pass_complete: stats.pass_complete,
             estimated_relative_error: stats.estimated_error.unwrap_or(0.0),
+            shaded_points: stats.shaded_points,
+            full_resolution_points: stats.full_resolution_points,
         }
     }
 }
@@ -570,6 +587,7 @@ impl FrameAssembler {
             ));
         }
         let mut frame = Frame {
+            shading: None,
             width: w,
             height: h,
             color: vec![[0.0; 3]; n],
@@ -593,9 +611,12 @@ impl FrameAssembler {
                 method_seconds: fc.method_seconds,
                 pass_complete: fc.pass_complete,
                 estimated_error: (fc.estimated_relative_error > 0.0).then_some(fc.estimated_relative_error),
+                shaded_points: fc.shaded_points,
+                full_resolution_points: fc.full_resolution_points,
             },
         };
         let mut aovs: Option<Aovs> = None;
+        let mut shading: Option<ShadingMaps> = None;
         for (spec, values) in header.layers.iter().zip(partial.values) {
             match spec.kind {
                 LayerKind::Color => frame.color = to_rgb(&values),
@@ -615,9 +636,13 @@ impl FrameAssembler {
                 LayerKind::Albedo => aovs.get_or_insert_with(Aovs::default).albedo = to_rgb(&values),
                 LayerKind::Normal => aovs.get_or_insert_with(Aovs::default).normal = to_rgb(&values),
                 LayerKind::Depth => aovs.get_or_insert_with(Aovs::default).depth = values,
+                LayerKind::Bandwidth => shading.get_or_insert_with(ShadingMaps::default).bandwidth = values,
+                LayerKind::Level => shading.get_or_insert_with(ShadingMaps::default).level = values,
             }
         }
         frame.aovs = aovs.map(Arc::new);
+        // Other methods stream zeros in these layers: their frames have no such maps.
+        frame.shading = shading.filter(|_| header.started.method == proto::Method::Bandwidth as i32);
         Ok(frame)
     }
 }

@@ -36,6 +36,7 @@ pub fn job(
     bounces: u32,
 ) -> RenderJob {
     RenderJob {
+        bandwidth: Default::default(),
         view: scene.default_view(),
         scene,
         method,

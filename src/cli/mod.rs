@@ -138,7 +138,7 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Sampling and filtering method of each pass: auto (the default), aaf, uniform, adaptive,
-    /// uniform-filtered, lobe-aware, normal-aware (`wedge methods` describes them).
+    /// uniform-filtered, lobe-aware, normal-aware, bandwidth (`wedge methods` describes them).
     #[arg(long)]
     pub method: Option<String>,
     /// Stop at this mean samples per pixel.

@@ -103,6 +103,8 @@ pub fn build_request(args: &RenderArgs, source: SceneSource) -> anyhow::Result<p
             albedo: args.aovs,
             normal: args.aovs,
             depth: args.aovs,
+            bandwidth: true,
+            level: true,
             format: proto::PixelFormat::F32 as i32,
         }),
         frame_every: 0,

@@ -32,3 +32,24 @@ pub fn rmse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
     let se: f64 = a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |c| (x[c] as f64 - y[c] as f64).powi(2))).sum();
     (se / (3 * a.len()) as f64).sqrt()
 }
+
+/// Every frame of a render, pass 0 included.
+pub fn all_frames(j: &RenderJob) -> Vec<Frame> {
+    let mut out = Vec::new();
+    render(j, &CancelToken::new(), &mut |f| {
+        out.push(f.clone());
+        true
+    })
+    .expect("render");
+    out
+}
+
+/// A scene file's text, edited as JSON and compiled at `w` x `h`.
+pub fn edited_scene(text: &str, w: u32, h: u32, edit: impl Fn(&mut serde_json::Value)) -> Arc<Scene> {
+    let mut json: serde_json::Value = serde_json::from_str(text).unwrap();
+    json["camera"]["width"] = w.into();
+    json["camera"]["height"] = h.into();
+    edit(&mut json);
+    let s = crate::scene::json::parse_scene(&json.to_string(), "edited scene").unwrap();
+    Arc::new(crate::scene::compile(&s, &crate::scene::SceneLimits::default(), None).unwrap())
+}

@@ -37,6 +37,7 @@ impl Strategy for Uniform {
         self.rays += tally.rays;
         self.dropped += tally.dropped;
         let frame = Frame {
+            shading: None,
             width: self.film.width,
             height: self.film.height,
             color: self.film.mean_image(),

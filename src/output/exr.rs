@@ -10,6 +10,8 @@
 //! `spp.Y`). The sorted channel list loses the components' order, so the `wedge.components`
 //! attribute lists them. When the render traced denoiser inputs: `albedo.R`,`.G`,`.B`,
 //! `normal.X`,`.Y`,`.Z` (world space) and `depth.Z` (scene units, +inf where nothing is hit).
+//! For methods that shade at a predicted rate (`bandwidth`): `bandwidth.Y` (cycles per pixel,
+//! +inf where not band-limited) and `level.Y` (the pass's shading level per pixel).
 use std::collections::{BTreeMap, HashMap};
 use std::io::Cursor;
 use std::path::Path;
@@ -24,7 +26,7 @@ use super::exr_attributes::{
 };
 use super::exr_canonical::sort_header_attributes;
 use super::{OutputError, OutputOptions};
-use crate::pipeline::frame::{ComponentMaps, Frame, RenderInfo};
+use crate::pipeline::frame::{ComponentMaps, Frame, RenderInfo, ShadingMaps};
 use crate::render::aovs::Aovs;
 use std::sync::Arc;
 
@@ -40,6 +42,8 @@ const NORMAL: [&str; 3] = ["normal.X", "normal.Y", "normal.Z"];
 const DEPTH: &str = "depth.Z";
 const SPP: &str = "spp.Y";
 const FILTER_WIDTH: &str = "filter_width.Y";
+const BANDWIDTH: &str = "bandwidth.Y";
+const LEVEL: &str = "level.Y";
 
 /// A file read back by `read_exr`.
 #[derive(Clone, Debug)]
@@ -143,9 +147,15 @@ pub fn read_exr(path: &Path) -> Result<ExrImage, OutputError> {
             depth: depth.unwrap_or_default(),
         })
     });
+    let shading = match (channel(BANDWIDTH)?, channel(LEVEL)?) {
+        (Some(bandwidth), Some(level)) => Some(ShadingMaps { bandwidth, level, ..ShadingMaps::default() }),
+        (None, None) => None,
+        _ => return Err(not_wedge(format!("only one of the channels {BANDWIDTH} and {LEVEL}"))),
+    };
     let too_large = || not_wedge(format!("image size {width}x{height} exceeds u32"));
     Ok(ExrImage {
         frame: Frame {
+            shading,
             width: u32::try_from(width).map_err(|_| too_large())?,
             height: u32::try_from(height).map_err(|_| too_large())?,
             color,
@@ -172,6 +182,8 @@ fn check_frame(frame: &Frame) -> Result<(), String> {
         ("unfiltered colour", frame.unfiltered.as_ref().map(Vec::len)),
         ("spp map", Some(frame.spp.len())),
         ("filter-width map", frame.filter_width.as_ref().map(Vec::len)),
+        ("bandwidth map", frame.shading.as_ref().map(|m| m.bandwidth.len())),
+        ("level map", frame.shading.as_ref().map(|m| m.level.len())),
     ];
     let component_lengths = frame.components.iter().flat_map(|c| {
         [
@@ -227,7 +239,13 @@ fn channels(frame: &Frame) -> AnyChannels<FlatSamples> {
         .chain(frame.unfiltered.iter().flat_map(|u| rgb_channels(UNFILTERED_RGB, u)))
         .chain([channel(SPP, frame.spp.clone()), channel(FILTER_WIDTH, widths(&frame.filter_width))])
         .chain(components)
-        .chain(aov_channels(frame));
+        .chain(aov_channels(frame))
+        .chain(
+            frame
+                .shading
+                .iter()
+                .flat_map(|m| [channel(BANDWIDTH, m.bandwidth.clone()), channel(LEVEL, m.level.clone())]),
+        );
     AnyChannels::sort(list.collect())
 }
 
@@ -279,7 +297,7 @@ mod tests {
     use crate::output::exr_attributes::{METHOD_SECONDS, SECONDS};
     use crate::output::exr_canonical::header_attributes;
     use crate::output::test_util::TempDir;
-    use crate::pipeline::frame::{CameraInfo, ComponentMaps, FrameStats, HaltReason};
+    use crate::pipeline::frame::{CameraInfo, ComponentMaps, FrameStats, HaltReason, ShadingMaps};
 
     fn info() -> RenderInfo {
         RenderInfo {
@@ -306,6 +324,12 @@ mod tests {
         };
         let rgb = |offset: usize| (0..n).map(|i| [0, 1, 2].map(|c| value(i + offset, c))).collect();
         Frame {
+            // Bandwidth maps are infinite where not band-limited, and levels go below 0.
+            shading: (!filtered).then(|| ShadingMaps {
+                bandwidth: (0..n).map(|i| value(i, 2)).collect(),
+                level: (0..n).map(|i| (i % 7) as f32 - 2.0).collect(),
+                analysis_seconds: 0.0,
+            }),
             width,
             height,
             color: rgb(0),
@@ -336,6 +360,8 @@ mod tests {
                 method_seconds: 0.25,
                 pass_complete: true,
                 estimated_error: None,
+                shaded_points: 17,
+                full_resolution_points: 123_456_789_012,
             },
         }
     }
@@ -473,7 +499,7 @@ mod tests {
                     "unfiltered.R",
                 ]
             } else {
-                &["B", "G", "R", "filter_width.Y", "spp.Y"]
+                &["B", "G", "R", "bandwidth.Y", "filter_width.Y", "level.Y", "spp.Y"]
             };
             assert_eq!(names, expected);
             let attributes = read_exr(&path).unwrap().attributes;

@@ -28,6 +28,9 @@ pub(super) const FINAL: &str = "wedge.final";
 pub(super) const PASS_COMPLETE: &str = "wedge.passComplete";
 /// Absent on a first frame, which has no estimate.
 pub(super) const ESTIMATED_ERROR: &str = "wedge.estimatedError";
+/// Only for methods that shade at a reduced rate (`FrameStats::full_resolution_points` > 0).
+pub(super) const SHADED_POINTS: &str = "wedge.shadedPoints";
+pub(super) const FULL_RESOLUTION_POINTS: &str = "wedge.fullResolutionPoints";
 pub(super) const HALT_REASON: &str = "wedge.haltReason";
 pub(super) const CAMERA_POSITION: &str = "wedge.cameraPosition";
 pub(super) const CAMERA_LOOK_AT: &str = "wedge.cameraLookAt";
@@ -69,6 +72,10 @@ pub(super) fn to_attributes(
     ];
     if let Some(e) = stats.estimated_error {
         attributes.push((ESTIMATED_ERROR, AttributeValue::F64(e)));
+    }
+    if stats.full_resolution_points > 0 {
+        attributes.push((SHADED_POINTS, text(&stats.shaded_points.to_string())));
+        attributes.push((FULL_RESOLUTION_POINTS, text(&stats.full_resolution_points.to_string())));
     }
     if with_seconds {
         attributes.push((SECONDS, AttributeValue::F64(stats.elapsed_seconds)));
@@ -119,6 +126,10 @@ pub(super) fn from_attributes(attributes: &HashMap<Text, AttributeValue>) -> Res
         true => double(name),
         false => Ok(0.0),
     };
+    let optional_u64 = |name: &str| match attributes.contains_key(name.as_bytes()) {
+        true => parsed_u64(name),
+        false => Ok(0),
+    };
     let float = |name: &str| match get(name)? {
         AttributeValue::F32(v) => Ok(*v),
         other => Err(wrong_type(name, other)),
@@ -161,6 +172,8 @@ pub(super) fn from_attributes(attributes: &HashMap<Text, AttributeValue>) -> Res
             .then(|| double(ESTIMATED_ERROR))
             .transpose()?,
         method_seconds: optional_double(METHOD_SECONDS)?,
+        shaded_points: optional_u64(SHADED_POINTS)?,
+        full_resolution_points: optional_u64(FULL_RESOLUTION_POINTS)?,
     };
     Ok((info, stats))
 }
@@ -243,6 +256,8 @@ mod tests {
             method_seconds: 0.5,
             pass_complete: false,
             estimated_error: Some(0.0125),
+            shaded_points: (1 << 59) + 3,
+            full_resolution_points: (1 << 60) + 5,
         };
         (info, stats)
     }
@@ -314,6 +329,7 @@ mod tests {
         assert_eq!(texts[FOV_Y], "39.3");
         assert_eq!(texts[FINAL], "1");
         assert_eq!(texts[HALT_REASON], "timeBudget");
-        assert_eq!(texts.len(), 18);
+        assert_eq!(texts[FULL_RESOLUTION_POINTS], ((1u64 << 60) + 5).to_string());
+        assert_eq!(texts.len(), 20);
     }
 }

@@ -38,12 +38,16 @@ pub struct WrittenFiles {
     pub filter_width_map: PathBuf,
     /// Per component, in `Frame::components` order: its spp map, then its filter-width map.
     pub component_maps: Vec<PathBuf>,
+    /// For frames with shading maps (`bandwidth`): the bandwidth map, then the level map.
+    pub shading_maps: Vec<PathBuf>,
 }
 
 /// Writes `<stem>.exr`, `<stem>.png` (preview), `<stem>_spp.png` and `<stem>_filter_width.png`
 /// into `dir`, creating it if missing, and for each component `<c>` of the frame
 /// `<stem>_spp.<c>.png` and `<stem>_filter_width.<c>.png` (the suffix is the layer's name, as
-/// for the total maps).
+/// for the total maps); for frames with shading maps, `<stem>_bandwidth.png` and
+/// `<stem>_level.png` (drawn as the shading spacing 2^level in pixels, so that the
+/// antialiasing levels -1 and -2 read as 1/2 and 1/4 of a pixel).
 pub fn write_frame_files(
     dir: &Path,
     stem: &str,
@@ -63,6 +67,10 @@ pub fn write_frame_files(
             .flat_map(|c| [format!("{stem}_spp.{}.png", c.name), format!("{stem}_filter_width.{}.png", c.name)])
             .map(|name| dir.join(name))
             .collect(),
+        shading_maps: match frame.shading {
+            Some(_) => vec![dir.join(format!("{stem}_bandwidth.png")), dir.join(format!("{stem}_level.png"))],
+            None => Vec::new(),
+        },
     };
     write_exr(&files.exr, frame, info, opts)?;
     write_preview_png(&files.preview, frame)?;
@@ -77,6 +85,11 @@ pub fn write_frame_files(
         write_false_color_png(&paths[0], &c.spp, width, height, &format!("{} spp", c.name))?;
         let filter_width = c.filter_width.as_deref().unwrap_or(&zeros);
         write_false_color_png(&paths[1], filter_width, width, height, &format!("{} filter width (px)", c.name))?;
+    }
+    if let (Some(m), [bandwidth, level]) = (&frame.shading, files.shading_maps.as_slice()) {
+        write_false_color_png(bandwidth, &m.bandwidth, width, height, "bandwidth (cycles/px)")?;
+        let spacing: Vec<f32> = m.level.iter().map(|&l| l.exp2()).collect();
+        write_false_color_png(level, &spacing, width, height, "shading spacing (px)")?;
     }
     Ok(files)
 }
@@ -108,6 +121,7 @@ mod tests {
                 spp_map: out.join("final_spp.png"),
                 filter_width_map: out.join("final_filter_width.png"),
                 component_maps: Vec::new(),
+                shading_maps: Vec::new(),
             }
         );
         let read = read_exr(&files.exr).unwrap();
@@ -152,6 +166,32 @@ mod tests {
             assert!(map.width() > 3 && map.height() > 5, "{}", path.display());
         }
         assert_eq!(read_exr(&files.exr).unwrap().frame.components.len(), 2);
+    }
+
+    #[test]
+    fn writes_bandwidth_and_level_maps_when_the_frame_has_them() {
+        let dir = TempDir::new("frame_files_shading");
+        let out = dir.path();
+        let frame = Frame {
+            width: 3,
+            height: 5,
+            color: vec![[0.25, 0.5, 1.0]; 15],
+            spp: vec![4.0; 15],
+            shading: Some(crate::pipeline::frame::ShadingMaps {
+                bandwidth: (0..15).map(|i| if i == 0 { f32::INFINITY } else { i as f32 * 0.1 }).collect(),
+                level: (0..15).map(|i| (i % 5) as f32 - 2.0).collect(),
+                analysis_seconds: 0.0,
+            }),
+            ..Frame::default()
+        };
+        let files = write_frame_files(out, "final", &frame, &RenderInfo::default(), &OutputOptions::default()).unwrap();
+        assert_eq!(files.shading_maps, vec![out.join("final_bandwidth.png"), out.join("final_level.png")]);
+        for path in &files.shading_maps {
+            let map = image::open(path).unwrap();
+            assert!(map.width() > 3 && map.height() > 5, "{}", path.display());
+        }
+        let back = read_exr(&files.exr).unwrap().frame.shading.unwrap();
+        assert_eq!(back.level, frame.shading.as_ref().unwrap().level);
     }
 
     #[test]

@@ -38,6 +38,11 @@ pub struct FrameStats {
     /// The render's own estimate of this frame's relative RMSE (`pipeline::noise`); None for
     /// the first frame, which has nothing to compare with.
     pub estimated_error: Option<f64>,
+    /// For methods that shade at a reduced rate (`bandwidth`): camera samples shaded in this
+    /// pass, and camera samples traced in it (what shading at full resolution would shade).
+    /// Both 0 for methods that shade every sample.
+    pub shaded_points: u64,
+    pub full_resolution_points: u64,
 }
 
 /// One progressively refined frame. Pixels are row-major, top row first.
@@ -61,7 +66,22 @@ pub struct Frame {
     /// Denoiser inputs (first-hit albedo, normal, depth) when the job asks for them: the same
     /// for every frame of a render, so shared.
     pub aovs: Option<Arc<Aovs>>,
+    /// The maps of methods that shade at a predicted rate (`bandwidth`); `None` for the others.
+    pub shading: Option<ShadingMaps>,
     pub stats: FrameStats,
+}
+
+/// Where a method that predicts bandwidth (Bagher et al. 2012) shaded, and how finely.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ShadingMaps {
+    /// The predicted image-space bandwidth `b_p` (Eq. 5), cycles per pixel: 0.5 is the pixel
+    /// rate; infinite where not band-limited.
+    pub bandwidth: Vec<f32>,
+    /// The level of this pass (Eq. 9's, lowered by the passes): a spacing exponent, 0 for every
+    /// pixel, k for every 2^k-th, -1 and -2 for 4 and 16 times the camera samples.
+    pub level: Vec<f32>,
+    /// Seconds the render spent predicting bandwidth (the analysis, before pass 0's samples).
+    pub analysis_seconds: f64,
 }
 
 /// The samples and filter width one component of the light received at each pixel.

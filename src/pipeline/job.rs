@@ -5,6 +5,7 @@
 use crate::methods::aaf_indirect::options::IndirectOptions;
 use crate::methods::aaf_shadows::options::AafOptions;
 use crate::methods::auto::options::AutoOptions;
+use crate::methods::bandwidth::options::BandwidthOptions;
 use crate::methods::lobe_aware::options::LobeAwareOptions;
 use crate::render::camera::Camera;
 pub use crate::render::integrator::Integrand;
@@ -59,6 +60,7 @@ pub enum Method {
     LobeAware,
     NormalAware,
     Auto,
+    Bandwidth,
 }
 
 /// One render: the compiled scene, the view it is seen from, the method and its options.
@@ -88,6 +90,8 @@ pub struct RenderJob {
     /// Parameters of `auto` (its widths' schedule and the gather); it also reads `aaf`,
     /// `indirect` and `lobe` for the papers' own constants.
     pub auto: AutoOptions,
+    /// Parameters of `bandwidth` (Bagher et al. 2012).
+    pub bandwidth: BandwidthOptions,
     /// Camera rays per pixel of the denoiser inputs (albedo, normal, depth: `render::aovs`),
     /// traced once before pass 0 and attached to every frame; 0 traces none.
     pub aov_samples: u32,
@@ -111,6 +115,7 @@ impl RenderJob {
             indirect: IndirectOptions::default(),
             lobe: LobeAwareOptions::default(),
             auto: AutoOptions::default(),
+            bandwidth: BandwidthOptions::default(),
             aov_samples: 0,
         }
     }

@@ -6,7 +6,7 @@
 use super::job::{Method, RenderJob};
 use super::strategy::Strategy;
 use crate::methods::mode::FilterMode;
-use crate::methods::{auto, parts, uniform::Uniform};
+use crate::methods::{auto, bandwidth::BandwidthShading, parts, uniform::Uniform};
 use crate::proto;
 
 pub struct MethodSpec {
@@ -97,6 +97,16 @@ pub const METHODS: &[MethodSpec] = &[
         components: auto::component_names,
         build: auto::build,
     },
+    MethodSpec {
+        method: Method::Bandwidth,
+        name: "bandwidth",
+        proto: proto::Method::Bandwidth,
+        summary: "environment light shaded on nested grids at its predicted bandwidth (Bagher 2012)",
+        filters: false,
+        needs_gbuffer: true,
+        components: |_| Vec::new(),
+        build: |job| Box::new(BandwidthShading::new(job)),
+    },
 ];
 
 /// The method the product recommends: the one the README's first command and a request that
@@ -104,7 +114,7 @@ pub const METHODS: &[MethodSpec] = &[
 pub const DEFAULT_METHOD: Method = Method::Auto;
 
 impl Method {
-    pub const ALL: [Method; 7] = [
+    pub const ALL: [Method; 8] = [
         Method::Uniform,
         Method::Aaf,
         Method::Adaptive,
@@ -112,6 +122,7 @@ impl Method {
         Method::LobeAware,
         Method::NormalAware,
         Method::Auto,
+        Method::Bandwidth,
     ];
 
     /// This method's row.
@@ -168,7 +179,7 @@ mod tests {
         }
         assert_eq!(Method::from_proto(proto::Method::Unspecified), None);
         // Every wire value but UNSPECIFIED has a row.
-        for v in 1..=7 {
+        for v in 1..=8 {
             let m = proto::Method::try_from(v).unwrap();
             assert!(Method::from_proto(m).is_some(), "{m:?} has no row");
         }

@@ -46,8 +46,25 @@ impl Camera {
         t * 2.0 * self.tan_half_fov / self.height as f32
     }
 
+    /// The horizontal and vertical fields of view, in radians.
+    pub fn fields_of_view(&self) -> (f64, f64) {
+        let t = self.tan_half_fov as f64;
+        let aspect = self.width as f64 / self.height as f64;
+        (2.0 * (t * aspect).atan(), 2.0 * t.atan())
+    }
+
     pub fn forward(&self) -> Vec3 {
         self.forward
+    }
+
+    /// The image's x axis in the world (towards increasing pixel x).
+    pub fn right(&self) -> Vec3 {
+        self.right
+    }
+
+    /// The image's upward axis in the world (towards decreasing pixel y).
+    pub fn up(&self) -> Vec3 {
+        self.up
     }
 }
 

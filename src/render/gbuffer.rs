@@ -7,7 +7,7 @@ use super::geometry::NONE;
 use super::huge_pages::filled;
 use super::material::Material;
 use super::scene::Scene;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 /// One pixel's primary hit.
@@ -22,6 +22,8 @@ pub struct GSample {
     /// Object (shape) id, or `NONE` for background.
     pub object: u32,
     pub material: u32,
+    /// Texture coordinates at the hit (textures' bandwidth reads them).
+    pub uv: Vec2,
     /// Diffuse albedo kd, specular ks and exponent m of the BRDF at the hit.
     pub kd: Vec3,
     pub ks: Vec3,
@@ -39,6 +41,7 @@ impl GSample {
         depth: f32::INFINITY,
         object: NONE,
         material: NONE,
+        uv: Vec2::ZERO,
         kd: Vec3::ZERO,
         ks: Vec3::ZERO,
         exponent: 0.0,
@@ -74,6 +77,7 @@ impl GBuffer {
                     depth: s.t,
                     object: s.object,
                     material: s.material,
+                    uv: s.uv,
                     kd: brdf.kd,
                     ks: brdf.ks,
                     exponent: brdf.exponent,

@@ -26,6 +26,9 @@ pub enum DirectLights {
     /// Leave out rectangular area lights (their direct light is estimated elsewhere, e.g. by
     /// AAF); their sample dimensions are still drawn, so the other numbers do not move.
     SkipRect,
+    /// Leave out the environment light (estimated elsewhere, e.g. by the bandwidth method's
+    /// shading); its dimensions are still drawn.
+    SkipEnvironment,
 }
 
 /// The sample numbers one light's direct-light estimate uses: a pair for the light, and for
@@ -65,7 +68,12 @@ pub fn direct_light_of(
     let mut rays = 0;
     for light in &scene.lights {
         let dims = LightDims::draw(light, sampler);
-        if brdf.is_black() || (which == DirectLights::SkipRect && matches!(light, Light::Rect(_))) {
+        let skipped = match which {
+            DirectLights::All => false,
+            DirectLights::SkipRect => matches!(light, Light::Rect(_)),
+            DirectLights::SkipEnvironment => matches!(light, Light::Environment(_)),
+        };
+        if brdf.is_black() || skipped {
             continue;
         }
         let (l, r) = light_radiance(scene, s, wo, &brdf, light, &dims);
@@ -129,16 +137,40 @@ pub fn environment_direct(
     u_brdf: [f32; 2],
 ) -> (Vec3, u32) {
     let (mut sum, mut rays) = (Vec3::ZERO, 0);
+    for (value, wi) in environment_terms(s, wo, brdf, env, u_light, u_lobe, u_brdf).into_iter().flatten() {
+        rays += 1;
+        if scene.escapes(s, wi) {
+            sum += value;
+        }
+    }
+    if sum.is_finite() {
+        (sum, rays)
+    } else {
+        (Vec3::ZERO, rays)
+    }
+}
+
+/// The two terms of `environment_direct` before visibility: for the light's and the BRDF's
+/// direction, the MIS-weighted `f L cos / pdf` and the direction, `None` where the term is
+/// zero whatever the visibility (below the horizon, black BRDF or sky). Their sum is an
+/// unbiased estimate of the unshadowed environment light; each term needs a ray to be shadowed.
+pub fn environment_terms(
+    s: &Surface,
+    wo: Vec3,
+    brdf: &Brdf,
+    env: &EnvironmentLight,
+    u_light: [f32; 2],
+    u_lobe: f32,
+    u_brdf: [f32; 2],
+) -> [Option<(Vec3, Vec3)>; 2] {
+    let mut terms = [None, None];
     if let Some(es) = env.sample(u_light) {
         let cos = s.ns.dot(es.wi);
         if cos > 0.0 && s.ng.dot(es.wi) > 0.0 {
             let f = brdf.eval(wo, es.wi, s.ns);
             if f != Vec3::ZERO && es.radiance != Vec3::ZERO {
-                rays += 1;
-                if scene.escapes(s, es.wi) {
-                    let w = power_heuristic(es.pdf, brdf.pdf(wo, es.wi, s.ns));
-                    sum += f * es.radiance * (cos * w / es.pdf);
-                }
+                let w = power_heuristic(es.pdf, brdf.pdf(wo, es.wi, s.ns));
+                terms[0] = Some((f * es.radiance * (cos * w / es.pdf), es.wi));
             }
         }
     }
@@ -147,19 +179,12 @@ pub fn environment_direct(
         if cos > 0.0 && s.ng.dot(b.wi) > 0.0 && b.f != Vec3::ZERO {
             let radiance = env.radiance(b.wi);
             if radiance != Vec3::ZERO {
-                rays += 1;
-                if scene.escapes(s, b.wi) {
-                    let w = power_heuristic(b.pdf, env.pdf(b.wi));
-                    sum += b.f * radiance * (cos * w / b.pdf);
-                }
+                let w = power_heuristic(b.pdf, env.pdf(b.wi));
+                terms[1] = Some((b.f * radiance * (cos * w / b.pdf), b.wi));
             }
         }
     }
-    if sum.is_finite() {
-        (sum, rays)
-    } else {
-        (Vec3::ZERO, rays)
-    }
+    terms
 }
 
 /// The light of one light sample `ls` reflected at `s` towards `wo` (f cos weight, 0 where

@@ -8,6 +8,11 @@ fn test_frame(width: u32, height: u32) -> Frame {
     let n = (width * height) as usize;
     let v = |i: usize, k: usize| ((i * 7 + k * 13) % 101) as f32 * 0.37 + 1e-3 * i as f32;
     Frame {
+        shading: Some(ShadingMaps {
+            bandwidth: (0..n).map(|i| if i % 7 == 0 { f32::INFINITY } else { v(i, 8) * 0.01 }).collect(),
+            level: (0..n).map(|i| (i % 6) as f32 - 2.0).collect(),
+            analysis_seconds: 0.0,
+        }),
         width,
         height,
         color: (0..n).map(|i| [v(i, 0), v(i, 1), v(i, 2)]).collect(),
@@ -35,6 +40,8 @@ fn test_frame(width: u32, height: u32) -> Frame {
             method_seconds: 0.01,
             pass_complete: true,
             estimated_error: Some(0.03),
+            shaded_points: 40,
+            full_resolution_points: 160,
         },
     }
 }
@@ -57,6 +64,8 @@ fn started(frame: &Frame, sel: &OutputSelection) -> RenderStarted {
         height: frame.height,
         layers: layer_names(sel, COMPONENTS),
         format: sel.format,
+        // The method whose frames have shading maps, for frames that have them.
+        method: if frame.shading.is_some() { crate::proto::Method::Bandwidth as i32 } else { 0 },
         ..Default::default()
     }
 }
@@ -200,6 +209,7 @@ fn default_cap_fits_a_4_mib_client_at_1080p() {
     let (w, h) = (1920u32, 1080u32);
     let n = (w * h) as usize;
     let frame = Frame {
+        shading: None,
         width: w,
         height: h,
         color: vec![[1.0; 3]; n],
@@ -435,4 +445,36 @@ fn denoiser_inputs_round_trip() {
     let mut short = frame.clone();
     short.aovs = Some(std::sync::Arc::new(Aovs { depth: vec![1.0; 3], ..(*frame.aovs.clone().unwrap()).clone() }));
     assert!(check_frame(&short, &depth_only, COMPONENTS).unwrap_err().contains("depth layer has 3 pixels"));
+}
+
+/// The bandwidth method's maps follow the denoiser inputs and travel bit-exact in f32 (infinite
+/// bandwidths and negative levels included); other methods send zeros, which the assembler
+/// drops: their frames have no such maps.
+#[test]
+fn shading_maps_round_trip() {
+    let frame = test_frame(5, 4);
+    let sel = OutputSelection { depth: true, bandwidth: true, level: true, ..all_layers(PixelFormat::F32) };
+    let names = layer_names(&sel, COMPONENTS);
+    assert_eq!(names[names.len() - 3..], ["depth", "bandwidth", "level"]);
+    let mut with_aovs = frame.clone();
+    with_aovs.aovs = Some(std::sync::Arc::new(Aovs { depth: vec![1.0; 20], ..Aovs::default() }));
+    for max in [1, DEFAULT_MAX_CHUNK_BYTES] {
+        let back = round_trip(&with_aovs, &sel, max);
+        let (a, b) = (back.shading.as_ref().unwrap(), frame.shading.as_ref().unwrap());
+        assert_eq!(scalar_bits(&a.bandwidth), scalar_bits(&b.bandwidth));
+        assert_eq!(scalar_bits(&a.level), scalar_bits(&b.level));
+        assert_eq!((back.stats.shaded_points, back.stats.full_resolution_points), (40, 160));
+    }
+    let level_only = OutputSelection { level: true, ..Default::default() };
+    assert_eq!(layer_names(&level_only, COMPONENTS), ["level"]);
+    let mut plain = frame.clone();
+    plain.shading = None;
+    let chunks = encode(&plain, &level_only, DEFAULT_MAX_CHUNK_BYTES);
+    assert!(chunks.iter().flat_map(|c| &c.layers).all(|l| l.data.iter().all(|&b| b == 0)));
+    assert!(round_trip(&plain, &level_only, DEFAULT_MAX_CHUNK_BYTES).shading.is_none());
+    assert!(round_trip(&frame, &all_layers(PixelFormat::F32), DEFAULT_MAX_CHUNK_BYTES).shading.is_none());
+    let mut short = frame.clone();
+    short.shading.as_mut().unwrap().level.pop();
+    let e = check_frame(&short, &sel, COMPONENTS).unwrap_err();
+    assert!(e.contains("level layer has 19 pixels"), "{e}");
 }

@@ -482,6 +482,7 @@ impl IndirectStrategy {
         let spp: Vec<f32> = self.sums.par_iter().map(|s| s.taken as f32).collect();
         let to_f32 = |v: Vec<[f64; 3]>| v.into_par_iter().map(|c| c.map(|x| x.max(0.0) as f32)).collect::<Vec<_>>();
         Frame {
+            shading: None,
             width: self.width as u32,
             height: self.height as u32,
             color: to_f32(color),

@@ -14,6 +14,7 @@ fn scene(json: &str) -> Arc<Scene> {
 /// k of these tests is pass k + 1 of the render, the k-th frame of the analysis proper.
 fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64, bounces: u32) -> RenderJob {
     RenderJob {
+        bandwidth: Default::default(),
         view: scene.default_view(),
         scene,
         method,

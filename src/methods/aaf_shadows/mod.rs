@@ -442,6 +442,7 @@ impl ShadowStrategy {
             })
             .unzip();
         let frame = Frame {
+            shading: None,
             width: self.width as u32,
             height: self.height as u32,
             color,

@@ -52,6 +52,7 @@ fn shadow_scene(w: u32, h: u32, scale: f32, profile: EmissionProfile, lights: us
 /// k of these tests is pass k + 1 of the render, the k-th frame of the analysis proper.
 fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64) -> RenderJob {
     RenderJob {
+        bandwidth: Default::default(),
         view: scene.default_view(),
         scene,
         method,

@@ -328,6 +328,7 @@ impl AutoStrategy {
             .unzip();
         let spp: Vec<f32> = self.sums.par_iter().map(|s| s.taken as f32).collect();
         Frame {
+            shading: None,
             width: self.width as u32,
             height: self.height as u32,
             color,

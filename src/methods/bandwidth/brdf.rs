@@ -13,6 +13,7 @@ use super::vector::QUANTILE_95;
 use crate::render::frame_basis::to_world;
 use crate::render::material::{Brdf, GlossyModel};
 use glam::Vec3;
+use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Bins of incident elevation, outgoing elevation and outgoing azimuth (the paper's 16).
@@ -32,38 +33,9 @@ fn bin(x: f64, range: f64) -> usize {
 
 impl BrdfBandwidth {
     pub fn new(brdf: &Brdf, opts: &WaveletOptions) -> Self {
-        let (rows, cols) = (SLICE_ROWS, 4 * SLICE_ROWS);
-        let mut table = vec![0.0f32; BINS * BINS * BINS];
-        for i in 0..BINS {
-            let theta_i = (i as f64 + 0.5) / BINS as f64 * FRAC_PI_2;
-            let wi = Vec3::new(theta_i.sin() as f32, 0.0, theta_i.cos() as f32);
-            let mut slice = vec![0.0f64; rows * cols];
-            for r in 0..rows {
-                let theta = (r as f64 + 0.5) / rows as f64 * FRAC_PI_2;
-                for c in 0..cols {
-                    let phi = (c as f64 + 0.5) / cols as f64 * 2.0 * PI;
-                    let wo = Vec3::new(
-                        (theta.sin() * phi.cos()) as f32,
-                        (theta.sin() * phi.sin()) as f32,
-                        theta.cos() as f32,
-                    );
-                    let f = brdf.eval(wo, wi, Vec3::Z);
-                    slice[r * cols + c] = (0.2126 * f.x + 0.7152 * f.y + 0.0722 * f.z) as f64;
-                }
-            }
-            let exponents = opts.exponents(&slice, cols, rows);
-            for r in 0..rows {
-                let theta = (r as f64 + 0.5) / rows as f64 * FRAC_PI_2;
-                // The texel's larger angular size: along the meridian or the parallel.
-                let size = (FRAC_PI_2 / rows as f64).max(2.0 * PI * theta.sin() / cols as f64);
-                for c in 0..cols {
-                    let phi = (c as f64 + 0.5) / cols as f64 * 2.0 * PI;
-                    let at = (i * BINS + bin(theta, FRAC_PI_2)) * BINS + bin(phi, 2.0 * PI);
-                    let nu = angular(exponents[r * cols + c], size) as f32;
-                    table[at] = table[at].max(nu);
-                }
-            }
-        }
+        // One incident bin per task: a bin's slice and wavelets are independent of the others'.
+        let bins: Vec<Vec<f32>> = (0..BINS).into_par_iter().map(|i| Self::incident_bin(brdf, opts, i)).collect();
+        let mut table = bins.concat();
         // A lobe narrower than a slice's texel falls between the texel centres and reads as
         // flat. Its own band, from the Gaussian it approximates (cos^m a ~ exp(-m a^2 / 2),
         // deviation 1 / sqrt(m); twice as wide in wo for Blinn-Phong, whose lobe is in the
@@ -82,6 +54,38 @@ impl BrdfBandwidth {
             }
         }
         BrdfBandwidth { table }
+    }
+
+    /// The table's entries for incident bin `i`: outgoing elevation x azimuth bins.
+    fn incident_bin(brdf: &Brdf, opts: &WaveletOptions, i: usize) -> Vec<f32> {
+        let (rows, cols) = (SLICE_ROWS, 4 * SLICE_ROWS);
+        let mut table = vec![0.0f32; BINS * BINS];
+        let theta_i = (i as f64 + 0.5) / BINS as f64 * FRAC_PI_2;
+        let wi = Vec3::new(theta_i.sin() as f32, 0.0, theta_i.cos() as f32);
+        let mut slice = vec![0.0f64; rows * cols];
+        for r in 0..rows {
+            let theta = (r as f64 + 0.5) / rows as f64 * FRAC_PI_2;
+            for c in 0..cols {
+                let phi = (c as f64 + 0.5) / cols as f64 * 2.0 * PI;
+                let wo =
+                    Vec3::new((theta.sin() * phi.cos()) as f32, (theta.sin() * phi.sin()) as f32, theta.cos() as f32);
+                let f = brdf.eval(wo, wi, Vec3::Z);
+                slice[r * cols + c] = (0.2126 * f.x + 0.7152 * f.y + 0.0722 * f.z) as f64;
+            }
+        }
+        let exponents = opts.exponents(&slice, cols, rows);
+        for r in 0..rows {
+            let theta = (r as f64 + 0.5) / rows as f64 * FRAC_PI_2;
+            // The texel's larger angular size: along the meridian or the parallel.
+            let size = (FRAC_PI_2 / rows as f64).max(2.0 * PI * theta.sin() / cols as f64);
+            for c in 0..cols {
+                let phi = (c as f64 + 0.5) / cols as f64 * 2.0 * PI;
+                let at = bin(theta, FRAC_PI_2) * BINS + bin(phi, 2.0 * PI);
+                let nu = angular(exponents[r * cols + c], size) as f32;
+                table[at] = table[at].max(nu);
+            }
+        }
+        table
     }
 
     /// The angular bandwidth for unit `wi` and `wo` about unit normal `n` (radians^-1); 0

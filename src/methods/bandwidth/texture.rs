@@ -1,16 +1,19 @@
 //! The spatial bandwidth of a texture (Bagher et al. 2012, Sec. 2.4: "the same approach" as
 //! for maps): the wavelet estimate over an image of the texture, as a frequency in radians per
 //! unit of u and v (`2 pi / (2^h texel)`). wedge's textures are constants (bandwidth 0) and
-//! checkerboards, whose period (two squares) is rasterised at `TEXELS_PER_SQUARE` texels per
+//! checkerboards, whose period (two squares) is rasterised at `texels_per_square` texels per
 //! square and analysed as a periodic image: near an edge the estimate is the finest the
 //! raster holds (an edge is not band-limited), inside a square it falls to the coarse levels.
-//! The strategy turns it into per-unit-length bandwidth with the pixel's uv footprint.
+//! The raster's resolution is therefore the bandwidth the edges are given; the strategy
+//! catches the edges themselves in image space (a pixel whose neighbours differ in albedo is
+//! shaded), so by default the raster is coarse (`options`). The strategy turns the estimate
+//! into per-unit-length bandwidth with the pixel's uv footprint.
 use super::illumination::{angular, WaveletOptions};
 use crate::render::texture::Texture;
 use glam::Vec2;
 
-/// Raster resolution of one checker square.
-pub const TEXELS_PER_SQUARE: usize = 128;
+/// Raster resolution of one checker square at most (the raster is period^2 texels).
+pub const MAX_TEXELS_PER_SQUARE: usize = 256;
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum TextureBandwidth {
@@ -22,7 +25,13 @@ pub enum TextureBandwidth {
 }
 
 impl TextureBandwidth {
-    pub fn new<T: Copy>(texture: &Texture<T>, luminance: impl Fn(T) -> f64, opts: &WaveletOptions) -> Self {
+    pub fn new<T: Copy>(
+        texture: &Texture<T>,
+        luminance: impl Fn(T) -> f64,
+        opts: &WaveletOptions,
+        texels_per_square: usize,
+    ) -> Self {
+        let texels = texels_per_square.clamp(1, MAX_TEXELS_PER_SQUARE);
         match texture {
             Texture::Constant(_) => TextureBandwidth::Flat,
             Texture::Checker { even, odd, scale } => {
@@ -30,19 +39,13 @@ impl TextureBandwidth {
                 if a == b || !(*scale > 0.0) || !scale.is_finite() {
                     return TextureBandwidth::Flat;
                 }
-                let period = 2 * TEXELS_PER_SQUARE;
+                let period = 2 * texels;
                 let image: Vec<f64> = (0..period * period)
-                    .map(|i| {
-                        if ((i % period) / TEXELS_PER_SQUARE + (i / period) / TEXELS_PER_SQUARE).is_multiple_of(2) {
-                            a
-                        } else {
-                            b
-                        }
-                    })
+                    .map(|i| if ((i % period) / texels + (i / period) / texels).is_multiple_of(2) { a } else { b })
                     .collect();
                 let exponents = opts.exponents(&image, period, period);
-                // A texel is 1 / (scale TEXELS_PER_SQUARE) of uv.
-                let texel = 1.0 / (*scale as f64 * TEXELS_PER_SQUARE as f64);
+                // A texel is 1 / (scale texels) of uv.
+                let texel = 1.0 / (*scale as f64 * texels as f64);
                 let nu = exponents.iter().map(|&h| angular(h, texel) as f32).collect();
                 TextureBandwidth::Checker { scale: *scale as f64, period, nu }
             }
@@ -74,14 +77,18 @@ mod tests {
     /// outweigh their edges', and a square's middle reads as sharp as its edge (tested below).
     fn checker(scale: f32) -> TextureBandwidth {
         let opts = WaveletOptions { basis: Basis::Amplitude, ..WaveletOptions::default() };
-        TextureBandwidth::new(&Texture::Checker { even: 0.8f32, odd: 0.2, scale }, |v| v as f64, &opts)
+        TextureBandwidth::new(&Texture::Checker { even: 0.8f32, odd: 0.2, scale }, |v| v as f64, &opts, 128)
     }
 
     #[test]
     fn constants_are_flat_and_checker_edges_are_sharp() {
         let opts = WaveletOptions::default();
-        assert_eq!(TextureBandwidth::new(&Texture::Constant(0.5f32), |v| v as f64, &opts).at(Vec2::new(0.3, 0.7)), 0.0);
-        let same = TextureBandwidth::new(&Texture::Checker { even: 0.5f32, odd: 0.5, scale: 4.0 }, |v| v as f64, &opts);
+        assert_eq!(
+            TextureBandwidth::new(&Texture::Constant(0.5f32), |v| v as f64, &opts, 128).at(Vec2::new(0.3, 0.7)),
+            0.0
+        );
+        let same =
+            TextureBandwidth::new(&Texture::Checker { even: 0.5f32, odd: 0.5, scale: 4.0 }, |v| v as f64, &opts, 128);
         assert_eq!(same, TextureBandwidth::Flat);
         let c = checker(4.0);
         // An edge at u = 0.25 (scale 4: squares a quarter wide): far more bandwidth than the
@@ -89,7 +96,8 @@ mod tests {
         let (edge, middle) = (c.at(Vec2::new(0.25, 0.125)), c.at(Vec2::new(0.125, 0.125)));
         assert!(edge > 4.0 * middle, "edge {edge}, middle {middle}");
         // The unit-area basis cannot tell them apart.
-        let unit = TextureBandwidth::new(&Texture::Checker { even: 0.8f32, odd: 0.2, scale: 4.0 }, |v| v as f64, &opts);
+        let unit =
+            TextureBandwidth::new(&Texture::Checker { even: 0.8f32, odd: 0.2, scale: 4.0 }, |v| v as f64, &opts, 128);
         assert_eq!(unit.at(Vec2::new(0.25, 0.125)), unit.at(Vec2::new(0.125, 0.125)));
     }
 

@@ -48,6 +48,21 @@ pub enum Propagation {
     Signed,
 }
 
+/// How the BRDF band-limits the light field at a reflection (`B_rho`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BrdfClip {
+    /// Shorten the spectrum, both extents by the same factor, until its angular extent is
+    /// `rho` (a departure). The spectrum of distant light is a line through the origin, and
+    /// the curvature shear before the BRDF keeps it one: (c a, a). Band-limiting the angle of a
+    /// line to `rho` cuts it at (c rho, rho), so its spatial extent falls with it; clipping the
+    /// angle alone would leave a curved surface's spatial extent at `c a`, as sharp as the
+    /// light however blurry the BRDF (a sun on a rough sphere would need every pixel shaded).
+    #[default]
+    Spectrum,
+    /// `min(rho, a)` on the angle only, the paper's `B_{t,rho}` as printed.
+    Angle,
+}
+
 /// A 2 x 2 operator on (s, a).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Op(pub [[f64; 2]; 2]);
@@ -104,9 +119,18 @@ impl Op {
 }
 
 /// `B_{t,rho}`: the texture adds its spatial bandwidth `t`, the BRDF band-limits the angular
-/// one to `rho` (its product with the light field's spectrum).
-pub fn texture_and_brdf(nu: Nu, t: f64, rho: f64) -> Nu {
-    Nu { s: nu.s + t, a: rho.min(nu.a) }
+/// one to `rho` (its product with the light field's spectrum), as `clip` says.
+pub fn texture_and_brdf(nu: Nu, t: f64, rho: f64, clip: BrdfClip) -> Nu {
+    match clip {
+        BrdfClip::Angle => Nu { s: nu.s + t, a: rho.min(nu.a) },
+        BrdfClip::Spectrum if nu.a > rho => {
+            // rho / a in [0, 1); an infinite spatial extent stays infinite unless rho is 0.
+            let k = rho / nu.a;
+            let s = if k == 0.0 { 0.0 } else { nu.s * k };
+            Nu { s: s + t, a: rho }
+        }
+        BrdfClip::Spectrum => Nu { s: nu.s + t, a: nu.a },
+    }
 }
 
 /// What reflection at a shading point depends on.
@@ -121,6 +145,7 @@ pub struct Reflection {
     pub texture: f64,
     /// Angular bandwidth of the BRDF for this pair of directions (per radian).
     pub brdf: f64,
+    pub clip: BrdfClip,
 }
 
 /// `R = P_x C_{-c} S B_{t,rho} C_c P_i` applied to an incident bandwidth (Sec. 2.1). The
@@ -128,7 +153,7 @@ pub struct Reflection {
 /// in its place in that order.
 pub fn reflect(nu: Nu, r: &Reflection, mode: Propagation) -> Nu {
     let before = Op::curvature(r.curvature).after(&Op::incident(r.cos_i));
-    let nu = texture_and_brdf(before.apply(nu, mode), r.texture, r.brdf);
+    let nu = texture_and_brdf(before.apply(nu, mode), r.texture, r.brdf, r.clip);
     let after = Op::outgoing(r.cos_x).after(&Op::curvature(-r.curvature)).after(&Op::mirror());
     after.apply(nu, mode)
 }
@@ -169,7 +194,14 @@ mod tests {
         // c = t = 0, normal incidence and view: R gives [0, min(rho, a)] in both modes.
         for mode in [Propagation::BoundingBox, Propagation::Signed] {
             for (a, rho) in [(5.0, 20.0), (40.0, 20.0)] {
-                let r = Reflection { cos_i: 1.0, cos_x: 1.0, curvature: 0.0, texture: 0.0, brdf: rho };
+                let r = Reflection {
+                    cos_i: 1.0,
+                    cos_x: 1.0,
+                    curvature: 0.0,
+                    texture: 0.0,
+                    brdf: rho,
+                    clip: BrdfClip::Angle,
+                };
                 let nu = reflect(Nu::distant(a), &r, mode);
                 assert!(nu.s.abs() < 1e-12 && (nu.a.abs() - f64::min(a, rho)).abs() < 1e-12, "{mode:?}: {nu:?}");
             }
@@ -179,7 +211,7 @@ mod tests {
     #[test]
     fn the_two_modes_agree_where_no_entry_is_negative_and_the_box_never_shrinks() {
         // Without transport, curvature or mirror the signed form has no negative entry.
-        let r = Reflection { cos_i: 0.6, cos_x: 0.8, curvature: 0.0, texture: 2.0, brdf: 9.0 };
+        let r = Reflection { cos_i: 0.6, cos_x: 0.8, curvature: 0.0, texture: 2.0, brdf: 9.0, clip: BrdfClip::Angle };
         let (b, s) = (
             reflect(Nu::distant(4.0), &r, Propagation::BoundingBox),
             reflect(Nu::distant(4.0), &r, Propagation::Signed),
@@ -194,19 +226,45 @@ mod tests {
         }
         // A textured surface seen from afar: the texture's spatial detail becomes angular
         // detail at the eye (d' t), which the signed form can cancel and the box keeps.
-        let r = Reflection { cos_i: 1.0, cos_x: 1.0, curvature: 0.0, texture: 10.0, brdf: 1e9 };
+        let r = Reflection { cos_i: 1.0, cos_x: 1.0, curvature: 0.0, texture: 10.0, brdf: 1e9, clip: BrdfClip::Angle };
         let b = one_bounce(0.0, &r, 3.0, Propagation::BoundingBox);
         assert!((b.a - 30.0).abs() < 1e-9 && (b.s - 10.0).abs() < 1e-9, "{b:?}");
     }
 
     #[test]
     fn grazing_views_stay_finite() {
-        let r = Reflection { cos_i: 0.0, cos_x: -0.2, curvature: 1.0, texture: 1.0, brdf: 50.0 };
+        let r =
+            Reflection { cos_i: 0.0, cos_x: -0.2, curvature: 1.0, texture: 1.0, brdf: 50.0, clip: BrdfClip::Spectrum };
         let nu = one_bounce(10.0, &r, 5.0, Propagation::BoundingBox);
         assert!(nu.s.is_finite() && nu.a.is_finite() && nu.s > 0.0 && nu.a > 0.0, "{nu:?}");
         // Non-band-limited inputs stay "large", never NaN.
         let r = Reflection { brdf: f64::INFINITY, ..r };
         let nu = one_bounce(f64::INFINITY, &r, 5.0, Propagation::BoundingBox);
         assert!(!nu.a.is_nan() && nu.a == f64::INFINITY);
+    }
+
+    #[test]
+    fn clipping_the_spectrum_shortens_a_curved_surfaces_spatial_extent() {
+        // A sharp light (a = 100) on a curved surface (c = 2) and a blurry BRDF (rho = 5): the
+        // sheared line (200, 100) is cut at (10, 5); the angle-only clip keeps s = 200.
+        let r =
+            Reflection { cos_i: 1.0, cos_x: 1.0, curvature: 2.0, texture: 0.0, brdf: 5.0, clip: BrdfClip::Spectrum };
+        let nu = texture_and_brdf(Nu { s: 200.0, a: 100.0 }, 0.0, 5.0, BrdfClip::Spectrum);
+        assert!((nu.s - 10.0).abs() < 1e-12 && nu.a == 5.0, "{nu:?}");
+        let angle = texture_and_brdf(Nu { s: 200.0, a: 100.0 }, 0.0, 5.0, BrdfClip::Angle);
+        assert!(angle.s == 200.0 && angle.a == 5.0, "{angle:?}");
+        // A band-limited light under a sharper BRDF is left alone; the texture adds either way.
+        assert_eq!(texture_and_brdf(Nu { s: 3.0, a: 4.0 }, 1.0, 9.0, BrdfClip::Spectrum), Nu { s: 4.0, a: 4.0 });
+        // A constant BRDF (rho = 0) removes all of the light's variation, infinite or not.
+        assert_eq!(texture_and_brdf(Nu { s: f64::INFINITY, a: f64::INFINITY }, 0.0, 0.0, BrdfClip::Spectrum), Nu::ZERO);
+        // Through the whole reflection the spectrum clip is never wider than the angle clip.
+        for c in [0.0, 0.5, 3.0] {
+            let r = Reflection { curvature: c, ..r };
+            let (s, a) = (
+                one_bounce(100.0, &r, 2.0, Propagation::BoundingBox),
+                one_bounce(100.0, &Reflection { clip: BrdfClip::Angle, ..r }, 2.0, Propagation::BoundingBox),
+            );
+            assert!(s.s <= a.s + 1e-12 && s.a <= a.a + 1e-12, "c = {c}: {s:?} vs {a:?}");
+        }
     }
 }

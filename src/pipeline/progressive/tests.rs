@@ -41,6 +41,7 @@ pub(crate) fn small_scene(width: u32, height: u32) -> Arc<Scene> {
 
 fn job(scene: Arc<Scene>, halt: Halt) -> RenderJob {
     RenderJob {
+        bandwidth: Default::default(),
         view: scene.default_view(),
         scene,
         method: Method::Uniform,

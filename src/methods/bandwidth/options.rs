@@ -1,0 +1,91 @@
+//! Options of the `bandwidth` method (Bagher et al. 2012): the analysis' constants, the shading
+//! budget and the upsampling weights. Plain data, so that `pipeline::job` can hold it.
+use super::illumination::WaveletOptions;
+use super::upsample::UpsampleOptions;
+use super::vector::{BrdfClip, Propagation};
+use super::wavelet::Basis;
+
+/// How the shaded, unshadowed light `S_hat` meets the shadows each camera sample traces (the
+/// paper shades unshadowed light; wedge's images have shadows).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Visibility {
+    /// `S_hat * sum(shadowed) / sum(unshadowed)` over the pixel's samples, per channel (the
+    /// ratio estimator of Heitz et al. 2018): exact where a pixel is wholly lit or wholly in
+    /// shadow, consistent (biased by O(1/n)) in penumbrae.
+    #[default]
+    Ratio,
+    /// `S_hat + mean(shadowed - unshadowed)`: unbiased, but in shadow the difference carries
+    /// the full noise of the unshadowed samples.
+    ControlVariate,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BandwidthOptions {
+    /// Light directions per pixel of Eq. 4 (`n_b`; the paper's Fig. 12 finds 16 enough).
+    pub light_samples: u32,
+    /// Eq. 4 divided by its own weights (`L rho cos`) rather than by `sum L` as printed.
+    pub normalised: bool,
+    /// `|M| nu` (bounding boxes, default) or the paper's signed `M nu`.
+    pub propagation: Propagation,
+    /// How the BRDF band-limits a reflection (`vector::BrdfClip`).
+    pub brdf_clip: BrdfClip,
+    /// Eq. 9 read with Shannon's rate: the spacing is `1 / (2 b_p)` pixels for `b_p` in cycles
+    /// per pixel (the bandwidth is a half-extent, so two samples per cycle suffice). Off, Eq. 9
+    /// as printed: spacing `1 / b_p` with `b_p` in radians per pixel (the wavelets' `2 pi /
+    /// period`), which shades pi times more densely than Nyquist asks.
+    pub nyquist: bool,
+    /// How the environment's and the BRDFs' bandwidths are estimated.
+    pub wavelets: WaveletOptions,
+    /// Textures' estimates: the amplitude basis by default, the one in which a checker's edges
+    /// read sharper than its squares (methods.md §4.1).
+    pub texture_wavelets: WaveletOptions,
+    /// Raster resolution of a checker square for its wavelet estimate (at most
+    /// `texture::MAX_TEXELS_PER_SQUARE`). The edges read as the raster's finest level, so this
+    /// is the bandwidth they get; 2 reads a checker at the scale of its squares and leaves its
+    /// edges to the image-space edge test.
+    pub texels_per_square: u32,
+    /// Allow the antialiasing levels -1 and -2 (4 and 16 times the pass's camera samples)
+    /// where the bandwidth is above the pixel rate. Off by default: every pass jitters its
+    /// camera samples over the pixel anyway, so the levels only move samples to those pixels,
+    /// and at equal time that cost more error elsewhere than it saved (BENCHMARKS.md).
+    pub antialiasing: bool,
+    /// Mean lookups (pairs of light- and BRDF-sampled directions, no rays) per camera sample
+    /// of a shaded pixel, shared out by the variance bound (Eq. 8); `N_tot` of Sec. 2.3 is
+    /// this times the shaded samples of the pass.
+    pub lookups_per_sample: f64,
+    /// No shaded sample gets more lookups than this.
+    pub max_lookups: u32,
+    /// Levels every pass lowers all levels by, so that the render reaches full resolution
+    /// (and from there converges to the `uniform` image) after `coarsest / level_step` passes.
+    pub level_step: u32,
+    /// The upsampling weights' scales (Sec. 3.2, unspecified in the paper).
+    pub upsample: UpsampleOptions,
+    /// Take values only from parents on the pixel's own object with its own BRDF parameters (a
+    /// departure: a sphere resting on a floor touches it at equal depth, where the depth
+    /// weight cannot tell them apart, and a parent across a texture's edge would bring the
+    /// other side's albedo; the pixel's own edge test sees only its 4-neighbours).
+    pub same_object: bool,
+    pub visibility: Visibility,
+}
+
+impl Default for BandwidthOptions {
+    fn default() -> Self {
+        BandwidthOptions {
+            light_samples: 16,
+            normalised: true,
+            propagation: Propagation::BoundingBox,
+            brdf_clip: BrdfClip::Spectrum,
+            nyquist: true,
+            wavelets: WaveletOptions::default(),
+            texture_wavelets: WaveletOptions { basis: Basis::Amplitude, ..WaveletOptions::default() },
+            texels_per_square: 2,
+            antialiasing: false,
+            lookups_per_sample: 4.0,
+            max_lookups: 256,
+            level_step: 1,
+            upsample: UpsampleOptions::default(),
+            same_object: true,
+            visibility: Visibility::Ratio,
+        }
+    }
+}

@@ -1,0 +1,152 @@
+//! The `bandwidth` method through the pipeline, on small scenes with fixed seeds: it is the
+//! plain path tracer where it has nothing to shade, its passes lower the levels to full
+//! resolution and converge to the `uniform` image, its frames do not depend on the thread
+//! count, and extreme lights and materials give finite, non-negative images.
+use crate::methods::tests::{all_frames, builtin, edited_scene, rmse};
+use crate::pipeline::job::{Halt, Method, RenderJob};
+use crate::render::gbuffer::GBuffer;
+use crate::render::scene::Scene;
+use std::sync::Arc;
+
+fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64, bounces: u32) -> RenderJob {
+    let mut j = RenderJob::new(scene, method, Halt::passes(passes));
+    (j.seed, j.bounces) = (seed, bounces);
+    j
+}
+
+fn mean(img: &[[f32; 3]]) -> f64 {
+    img.iter().flatten().map(|&v| v as f64).sum::<f64>() / (3 * img.len()) as f64
+}
+
+/// The sky-spheres scene at `w` x `h` with its scene file edited.
+fn sky_spheres(w: u32, h: u32, edit: impl Fn(&mut serde_json::Value)) -> Arc<Scene> {
+    edited_scene(include_str!("../../../scenes/sky-spheres.json"), w, h, edit)
+}
+
+/// Without an environment light there is nothing to shade: every sample is the path tracer's
+/// own, drawn from the same sample streams, so the frames are `uniform`'s, bit for bit.
+#[test]
+fn without_an_environment_it_is_the_path_tracer() {
+    let s = builtin("cornell", 16, 12);
+    let (a, b) =
+        (all_frames(&job(s.clone(), Method::Bandwidth, 3, 7, 1)), all_frames(&job(s, Method::Uniform, 3, 7, 1)));
+    assert_eq!(a.len(), 3);
+    for (fa, fb) in a.iter().zip(&b) {
+        assert_eq!(fa.color, fb.color, "pass {}", fa.stats.pass);
+        assert_eq!(fa.spp, fb.spp);
+        assert!(fa.shading.is_none() && fa.stats.full_resolution_points == 0);
+    }
+}
+
+/// Under the sky: pass 0 shades a fraction of the samples and upsamples the rest; each pass
+/// lowers the levels by one, so that by the image's coarsest level every sample is shaded;
+/// from there the estimate is the pixel's own and the stream converges to the path tracer's
+/// image: its mean within 2% and its error falling to that of `uniform` at similar samples.
+#[test]
+fn the_passes_reach_full_resolution_and_converge_to_uniform() {
+    let s = builtin("sky-spheres", 64, 48);
+    let reference = all_frames(&job(s.clone(), Method::Uniform, 11, 99, 0)).pop().unwrap();
+    let f = all_frames(&job(s.clone(), Method::Bandwidth, 8, 1, 0));
+    let first = &f[0];
+    let maps = first.shading.as_ref().unwrap();
+    assert_eq!((maps.bandwidth.len(), maps.level.len()), (3072, 3072));
+    assert!(maps.level.iter().any(|&l| l >= 2.0), "no coarse level: {:?}", maps.level);
+    assert!(maps.bandwidth.iter().all(|b| !b.is_nan() && *b >= 0.0));
+    let (shaded, full) = (first.stats.shaded_points, first.stats.full_resolution_points);
+    assert!(shaded > 0 && shaded < full * 3 / 4, "pass 0 shaded {shaded} of {full}");
+    // 64 x 48: the coarsest level is 5, reached by every pixel after 5 passes; from then on
+    // every sample of every pixel that sees a surface is shaded (the sky's never are).
+    let j = job(s.clone(), Method::Bandwidth, 8, 1, 0);
+    let g = GBuffer::build(&s, &j.view);
+    let surface = g.pixels.iter().filter(|p| p.is_valid() && !p.emitter).count() as u64;
+    assert!(surface > 1500 && surface < 3072, "{surface}");
+    for fr in &f[5..] {
+        assert!(fr.shading.as_ref().unwrap().level.iter().all(|&l| l <= 0.0), "pass {}", fr.stats.pass);
+        assert_eq!(fr.stats.shaded_points * 3072, fr.stats.full_resolution_points * surface, "pass {}", fr.stats.pass);
+    }
+    let last = f.last().unwrap();
+    let (m, r) = (mean(&last.color), mean(&reference.color));
+    assert!((m / r - 1.0).abs() < 0.02, "mean {m} vs {r}");
+    let e: Vec<f64> = f.iter().map(|fr| rmse(&fr.color, &reference.color)).collect();
+    assert!(e[7] < 0.5 * e[1], "{e:?}");
+    let uniform = all_frames(&job(s, Method::Uniform, 8, 1, 0));
+    let u = uniform.iter().find(|fr| fr.stats.mean_spp >= last.stats.mean_spp).unwrap_or(uniform.last().unwrap());
+    let eu = rmse(&u.color, &reference.color);
+    assert!(e[7] < 1.5 * eu, "bandwidth {} vs uniform {eu} at {} spp", e[7], u.stats.mean_spp);
+}
+
+/// The same render on one thread and on two gives the same frames.
+#[test]
+fn frames_do_not_depend_on_the_thread_count() {
+    let s = builtin("sky-spheres", 24, 16);
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| all_frames(&job(s.clone(), Method::Bandwidth, 3, 3, 1)))
+    };
+    let (a, b) = (run(1), run(2));
+    for (fa, fb) in a.iter().zip(&b) {
+        assert_eq!(fa.color, fb.color, "pass {}", fa.stats.pass);
+        let (ma, mb) = (fa.shading.as_ref().unwrap(), fb.shading.as_ref().unwrap());
+        assert_eq!((&ma.bandwidth, &ma.level), (&mb.bandwidth, &mb.level));
+    }
+}
+
+/// A black sky, a constant one, and spheres of exponent 10^6 seen at grazing angles: finite,
+/// non-negative frames, black where the light is; under a constant sky only the texture and
+/// the edges have bandwidth, less than under the sky with its sun.
+#[test]
+fn extreme_lights_and_materials_give_finite_images() {
+    let constant = |r: f64| {
+        move |j: &mut serde_json::Value| {
+            j["lights"][0]["environment"] = serde_json::json!({"constant": {"r": r, "g": r, "b": r}});
+        }
+    };
+    let sharp = |j: &mut serde_json::Value| {
+        for m in j["materials"].as_array_mut().unwrap() {
+            if let Some(g) = m.get_mut("glossy") {
+                g["exponent"] = serde_json::json!({"constant": 1e6});
+            }
+        }
+    };
+    let mut medians = Vec::new();
+    for (what, scene) in [
+        ("sky", sky_spheres(24, 16, |_| {})),
+        ("black", sky_spheres(24, 16, constant(0.0))),
+        ("constant", sky_spheres(24, 16, constant(1.0))),
+        ("sharp", sky_spheres(24, 16, sharp)),
+    ] {
+        let f = all_frames(&job(scene, Method::Bandwidth, 3, 2, 1));
+        for fr in &f {
+            assert!(fr.color.iter().flatten().all(|v| v.is_finite() && *v >= 0.0), "{what} pass {}", fr.stats.pass);
+            let maps = fr.shading.as_ref().unwrap();
+            assert!(maps.level.iter().all(|l| l.is_finite()), "{what}");
+        }
+        if what == "black" {
+            assert!(f.iter().all(|fr| fr.color.iter().flatten().all(|&v| v == 0.0)), "black sky, light seen");
+        }
+        let mut b = f[0].shading.as_ref().unwrap().bandwidth.clone();
+        b.sort_by(f32::total_cmp);
+        medians.push(b[b.len() / 2]);
+    }
+    // sky, black, constant, sharp.
+    assert!(medians[2] < medians[0], "constant sky {} vs sky {}", medians[2], medians[0]);
+}
+
+/// With the antialiasing levels on, a pixel at level -1 or -2 takes 4 or 16 times the pass's
+/// camera samples, and only those pixels do; off (the default), every pixel takes the same.
+#[test]
+fn antialiasing_levels_multiply_the_camera_samples_where_the_bandwidth_asks() {
+    let s = builtin("sky-spheres", 48, 32);
+    for antialiasing in [true, false] {
+        let mut j = job(s.clone(), Method::Bandwidth, 1, 4, 0);
+        j.bandwidth.antialiasing = antialiasing;
+        let f = all_frames(&j).pop().unwrap();
+        let levels = &f.shading.as_ref().unwrap().level;
+        let fine = levels.iter().filter(|&&l| l < 0.0).count();
+        assert_eq!(fine > 0, antialiasing, "{fine} pixels below level 0");
+        for (spp, &level) in f.spp.iter().zip(levels) {
+            let expected = if level < 0.0 { 4f32.powf(-level) } else { 1.0 };
+            assert_eq!(*spp, expected, "level {level}");
+        }
+    }
+}

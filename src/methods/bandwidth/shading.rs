@@ -1,0 +1,349 @@
+//! The `bandwidth` strategy (Bagher et al. 2012 made progressive): pass 0 analyses every pixel
+//! (`analysis`); each pass lowers the levels by `level_step`, shades the pixels the nested
+//! grids ask for (`grid`) with `N_p` lookups per camera sample shared out by Eq. 8, traces
+//! every pixel's camera samples (more where Eq. 9 gives an antialiasing level), and composes
+//! `S_hat` with the shadows and the rest those samples traced (`sample`, `options::Visibility`).
+//! Once every level reaches 0 every surface pixel is shaded at its own samples, so `S_hat` is
+//! the pixel's own mean and the estimate is consistent: the render converges to the `uniform`
+//! image.
+use super::analysis::{analyse, coarsest_level, finest_level, Analysis};
+use super::grid::{grid_level, Upsampling};
+use super::levels::pyramid;
+use super::options::Visibility;
+use super::sample::{sample_terms, shade, LookupStream, MAX_LOOKUPS};
+use crate::methods::uniform::Uniform;
+use crate::pipeline::film::Tally;
+use crate::pipeline::frame::{Frame, FrameStats, ShadingMaps};
+use crate::pipeline::job::{Integrand, RenderError, RenderJob};
+use crate::pipeline::strategy::{PassContext, PassOutput, Strategy};
+use crate::render::geometry::NONE;
+use crate::render::integrator::sample_from;
+use crate::render::sampler::{hash_words, PixelSampler};
+use glam::Vec3;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Rows per unit of parallel work.
+const BAND_ROWS: usize = 4;
+/// Seed of the shading lookups' stream.
+const STREAM: u64 = 0x7368_6164_6521;
+
+/// A pixel's running sums (f64).
+#[derive(Clone, Copy, Debug, Default)]
+struct Accum {
+    /// Samples that hit something other than the pixel's centre: the full estimate, which
+    /// `S_hat` (the centre's shading) cannot stand for.
+    whole: [f64; 3],
+    n_whole: u32,
+    /// Samples on the centre's object (or, at a background pixel, in the sky): their terms.
+    rest: [f64; 3],
+    shadowed: [f64; 3],
+    unshadowed: [f64; 3],
+    n_same: u32,
+    /// The pixel's own shading, `S`, at its shaded samples.
+    shaded: [f64; 3],
+    n_shaded: u32,
+    /// Samples drawn (the next sample's index).
+    taken: u32,
+}
+
+impl Accum {
+    /// The pixel's value given `S_hat` (None: no shading reached it yet).
+    fn estimate(&self, s_hat: Option<&[f64; 3]>, visibility: Visibility) -> [f32; 3] {
+        let n = self.n_whole + self.n_same;
+        if n == 0 {
+            return [0.0; 3];
+        }
+        let same = self.n_same as f64;
+        let mut sum = [0.0f64; 3];
+        for c in 0..3 {
+            // What the samples on the centre's surface say its environment light is.
+            let environment = match (s_hat, visibility) {
+                (None, _) => self.shadowed[c],
+                (Some(s), Visibility::ControlVariate) => same * s[c] + self.shadowed[c] - self.unshadowed[c],
+                // With no unshadowed light to compare with, the samples' own sum stands.
+                (Some(_), Visibility::Ratio) if self.unshadowed[c] <= 0.0 => self.shadowed[c],
+                (Some(s), Visibility::Ratio) => same * s[c] * (self.shadowed[c] / self.unshadowed[c]),
+            };
+            sum[c] = self.whole[c] + self.rest[c] + environment;
+        }
+        // The control variate can go below 0 where a shadow's noise exceeds the light.
+        sum.map(|v| (v / n as f64).max(0.0) as f32)
+    }
+}
+
+fn add(sum: &mut [f64; 3], v: Vec3) {
+    for c in 0..3 {
+        sum[c] += v[c] as f64;
+    }
+}
+
+/// What a pass does at one pixel.
+#[derive(Clone, Copy, Debug, Default)]
+struct PixelPlan {
+    samples: u32,
+    /// Lookups per shaded sample; 0: the pixel is not shaded this pass.
+    lookups: u32,
+}
+
+pub struct BandwidthShading {
+    width: u32,
+    height: u32,
+    seed: u64,
+    /// Shading is possible (radiance and an environment light); otherwise every sample is a
+    /// whole estimate and the method is the plain path tracer.
+    shades: bool,
+    analysis: Option<Analysis>,
+    upsampling: Option<Upsampling>,
+    pixels: Vec<Accum>,
+    /// Camera samples per pixel asked for so far at antialiasing factor 1.
+    base_spp: u64,
+    rays: u64,
+    dropped: u64,
+    method_seconds: f64,
+    /// Seconds of pass 0's analysis (the bandwidth prediction) and upsampling setup.
+    analysis_seconds: f64,
+}
+
+impl BandwidthShading {
+    pub fn new(job: &RenderJob) -> Self {
+        let (width, height) = (job.width(), job.height());
+        BandwidthShading {
+            width,
+            height,
+            seed: job.seed,
+            shades: job.integrand == Integrand::Radiance && job.scene.environment().is_some(),
+            analysis: None,
+            upsampling: None,
+            pixels: vec![Accum::default(); width as usize * height as usize],
+            base_spp: 0,
+            rays: 0,
+            dropped: 0,
+            method_seconds: 0.0,
+            analysis_seconds: 0.0,
+        }
+    }
+
+    /// The levels of `pass`: Eq. 9's lowered by `level_step` per pass.
+    fn pass_levels(analysis: &Analysis, pass: u32, step: u32) -> Vec<i32> {
+        let lower = (pass as i64 * step as i64).min(64) as i32;
+        analysis.level.iter().map(|&l| l.saturating_sub(lower)).collect()
+    }
+
+    /// Each pixel's samples and lookups this pass.
+    fn plan(&self, ctx: &PassContext, levels: &[i32], k: u32) -> Vec<PixelPlan> {
+        let opts = &ctx.job.bandwidth;
+        let (Some(analysis), Some(up)) = (&self.analysis, &self.upsampling) else {
+            return vec![PixelPlan { samples: k, lookups: 0 }; self.pixels.len()];
+        };
+        let g = ctx.gbuffer();
+        let surface: Vec<bool> = g.pixels.iter().map(|p| p.is_valid() && !p.emitter).collect();
+        let shaded = up.shaded(levels, &surface);
+        // Eq. 8's bound, max-mipmapped: a shaded pixel stands for its block.
+        let (w, h) = (self.width as usize, self.height as usize);
+        let maxes = pyramid(&analysis.variance, w, h, f64::max);
+        let coarsest = up.coarsest;
+        let block_variance = |i: usize| {
+            let (x, y) = ((i % w) as u32, (i / w) as u32);
+            let level = grid_level(x, y, coarsest) as usize;
+            let (bw, _, ref v) = maxes[level];
+            v[(y as usize >> level) * bw + (x as usize >> level)]
+        };
+        let variances: Vec<f64> = (0..w * h).map(|i| if shaded[i] { block_variance(i) } else { 0.0 }).collect();
+        let count = shaded.iter().filter(|&&s| s).count().max(1) as f64;
+        let mean = variances.iter().filter(|v| v.is_finite()).sum::<f64>() / count;
+        let max_lookups = opts.max_lookups.clamp(1, MAX_LOOKUPS);
+        (0..w * h)
+            .map(|i| {
+                let level = analysis.level[i];
+                let factor = if level < 0 { 1u32 << (2 * (-level).min(2)) } else { 1 };
+                let lookups = if !shaded[i] {
+                    0
+                } else {
+                    let share = if mean > 0.0 && variances[i].is_finite() {
+                        opts.lookups_per_sample * variances[i] / mean
+                    } else if mean > 0.0 {
+                        max_lookups as f64
+                    } else {
+                        opts.lookups_per_sample
+                    };
+                    // Never below the mean: a shaded pixel's noise is every upsampled child's.
+                    (share.max(opts.lookups_per_sample).round() as u32).clamp(1, max_lookups)
+                };
+                PixelPlan { samples: k.saturating_mul(factor), lookups }
+            })
+            .collect()
+    }
+
+    /// Traces the pass's samples of every pixel, in parallel over bands of rows.
+    fn trace(&mut self, ctx: &PassContext, plan: &[PixelPlan]) -> Result<Tally, RenderError> {
+        let job = ctx.job;
+        let scene = ctx.scene;
+        let cam = ctx.view;
+        let w = self.width as usize;
+        let (seed, shades) = (self.seed, self.shades);
+        let shade_seed = hash_words(&[seed, STREAM]);
+        let env = scene.environment();
+        let gbuffer = ctx.gbuffer.map(|g| g.as_ref());
+        let tallies: Vec<Tally> = self
+            .pixels
+            .par_chunks_mut(w * BAND_ROWS)
+            .enumerate()
+            .map(|(band, rows)| {
+                let mut t = Tally { complete: true, ..Tally::default() };
+                for (r, row) in rows.chunks_mut(w).enumerate() {
+                    let y = band * BAND_ROWS + r;
+                    for (x, px) in row.iter_mut().enumerate() {
+                        if ctx.stop.should_stop() {
+                            t.complete = false;
+                            return t;
+                        }
+                        let i = y * w + x;
+                        let centre_object = gbuffer.map_or(NONE, |g| g.pixels[i].object);
+                        for _ in 0..plan[i].samples {
+                            let index = px.taken;
+                            px.taken += 1;
+                            let mut sampler = PixelSampler::new(seed, i as u32, index);
+                            let j = sampler.next_2d();
+                            let (fx, fy) = if job.pixel_centers { (0.5, 0.5) } else { (j[0], j[1]) };
+                            let dir = cam.direction(x as f32 + fx, y as f32 + fy);
+                            let hit = scene.intersect(cam.position, dir, 0.0);
+                            t.rays += 1;
+                            let (Some(env), true) = (env, shades) else {
+                                let p = sample_from(scene, hit, -dir, job.integrand, job.bounces, &mut sampler);
+                                t.rays += p.rays as u64;
+                                if p.radiance.is_finite() {
+                                    add(&mut px.whole, p.radiance);
+                                    px.n_whole += 1;
+                                } else {
+                                    t.dropped += 1;
+                                }
+                                continue;
+                            };
+                            let terms = sample_terms(scene, env, hit.as_ref(), -dir, job.bounces, &mut sampler);
+                            t.rays += terms.rays as u64;
+                            let same = hit.as_ref().map_or(NONE, |s| s.object) == centre_object;
+                            let shaded_value = match (&hit, same && plan[i].lookups > 0) {
+                                (Some(s), true) => {
+                                    let stream = LookupStream { seed: shade_seed, pixel: i as u32, index };
+                                    Some(shade(scene, env, s, -dir, plan[i].lookups, stream))
+                                }
+                                _ => None,
+                            };
+                            let finite = terms.rest.is_finite()
+                                && terms.shadowed.is_finite()
+                                && terms.unshadowed.is_finite()
+                                && shaded_value.is_none_or(|v| v.is_finite());
+                            if !finite {
+                                t.dropped += 1;
+                                continue;
+                            }
+                            if !same {
+                                add(&mut px.whole, terms.rest + terms.shadowed);
+                                px.n_whole += 1;
+                                continue;
+                            }
+                            add(&mut px.rest, terms.rest);
+                            add(&mut px.shadowed, terms.shadowed);
+                            add(&mut px.unshadowed, terms.unshadowed);
+                            px.n_same += 1;
+                            if let Some(s) = shaded_value {
+                                add(&mut px.shaded, s);
+                                px.n_shaded += 1;
+                            }
+                        }
+                    }
+                }
+                t
+            })
+            .collect();
+        if ctx.stop.is_cancelled() {
+            return Err(RenderError::Cancelled);
+        }
+        Ok(Tally::total(&tallies))
+    }
+
+    /// Every pixel's estimate: `S_hat` from its own shading or its parents', plus its samples.
+    fn compose(&self, ctx: &PassContext) -> Vec<[f32; 3]> {
+        let s_hat: Vec<Option<[f64; 3]>> = match (&self.upsampling, ctx.gbuffer) {
+            (Some(up), Some(g)) => {
+                let own: Vec<Option<[f64; 3]>> = self
+                    .pixels
+                    .iter()
+                    .zip(&g.pixels)
+                    .map(|(px, p)| {
+                        if !p.is_valid() || p.emitter {
+                            // Nothing at the centre reflects the environment: S is 0 there.
+                            Some([0.0; 3])
+                        } else {
+                            (px.n_shaded > 0).then(|| px.shaded.map(|v| v / px.n_shaded as f64))
+                        }
+                    })
+                    .collect();
+                up.resolve(&own)
+            }
+            _ => vec![None; self.pixels.len()],
+        };
+        let visibility = ctx.job.bandwidth.visibility;
+        self.pixels.iter().zip(&s_hat).map(|(px, s)| px.estimate(s.as_ref(), visibility)).collect()
+    }
+}
+
+impl Strategy for BandwidthShading {
+    fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError> {
+        let job = ctx.job;
+        let opts = &job.bandwidth;
+        let start = Instant::now();
+        if ctx.pass == 0 && self.shades {
+            let g = ctx.gbuffer();
+            self.analysis = Some(analyse(ctx.scene, ctx.view, g, opts, job.seed));
+            let coarsest = coarsest_level(self.width, self.height);
+            self.upsampling = Some(Upsampling::new(g, ctx.view, coarsest, &opts.upsample, opts.same_object));
+            self.analysis_seconds = start.elapsed().as_secs_f64();
+        }
+        let k = Uniform::pass_spp(job.initial_spp, ctx.pass, self.base_spp, job.halt.max_mean_spp);
+        let levels = self.analysis.as_ref().map(|a| Self::pass_levels(a, ctx.pass, opts.level_step));
+        let plan = match &levels {
+            Some(levels) => self.plan(ctx, levels, k),
+            None => vec![PixelPlan { samples: k, lookups: 0 }; self.pixels.len()],
+        };
+        self.method_seconds += start.elapsed().as_secs_f64();
+        let tally = self.trace(ctx, &plan)?;
+        self.base_spp += k as u64;
+        self.rays += tally.rays;
+        self.dropped += tally.dropped;
+        let start = Instant::now();
+        let color = self.compose(ctx);
+        let finest = finest_level(opts);
+        let shaded_points = plan.iter().filter(|p| p.lookups > 0).map(|p| p.samples as u64).sum();
+        let full_resolution_points = plan.iter().map(|p| p.samples as u64).sum();
+        let shading = self.analysis.as_ref().zip(levels).map(|(a, levels)| ShadingMaps {
+            bandwidth: a.bandwidth.clone(),
+            level: levels.iter().map(|&l| l.max(finest) as f32).collect(),
+            analysis_seconds: self.analysis_seconds,
+        });
+        self.method_seconds += start.elapsed().as_secs_f64();
+        let n = self.pixels.len().max(1) as f64;
+        let frame = Frame {
+            width: self.width,
+            height: self.height,
+            color,
+            unfiltered: None,
+            spp: self.pixels.iter().map(|p| (p.n_whole + p.n_same) as f32).collect(),
+            filter_width: None,
+            components: Vec::new(),
+            aovs: None,
+            shading,
+            stats: FrameStats {
+                mean_spp: self.pixels.iter().map(|p| p.taken as f64).sum::<f64>() / n,
+                rays_traced: self.rays,
+                dropped_samples: self.dropped,
+                method_seconds: self.method_seconds,
+                shaded_points: if self.analysis.is_some() { shaded_points } else { 0 },
+                full_resolution_points: if self.analysis.is_some() { full_resolution_points } else { 0 },
+                ..FrameStats::default()
+            },
+        };
+        Ok(PassOutput { frame, complete: tally.complete })
+    }
+}
