@@ -98,13 +98,21 @@ fn median_curve(method: Method, runs: &[Vec<Point>]) -> Curve {
     Curve { method, points }
 }
 
-/// Runs the benchmark on one scene (a built-in name or a scene file's message).
-pub fn bench_scene(name: &str, mut scene: proto::Scene, cfg: &BenchConfig) -> anyhow::Result<SceneResult> {
+/// Runs the benchmark on one scene (a built-in name or a scene file's message; `base_dir`, a
+/// scene file's directory, is where the files it names are looked up and must lie).
+pub fn bench_scene(
+    name: &str,
+    mut scene: proto::Scene,
+    base_dir: Option<&Path>,
+    cfg: &BenchConfig,
+) -> anyhow::Result<SceneResult> {
     if let Some(c) = scene.camera.as_mut() {
         (c.width, c.height) = (cfg.width, cfg.height);
     }
     let bounces = cfg.bounces.unwrap_or_else(|| scene.settings.as_ref().and_then(|s| s.bounces).unwrap_or(0));
-    let compiled = Arc::new(compile(&scene, &SceneLimits::default(), None)?);
+    // A scene file's mesh and map files must lie under its own directory, as for `wedge render`.
+    let limits = SceneLimits { mesh_root: base_dir.map(Path::to_path_buf), ..SceneLimits::default() };
+    let compiled = Arc::new(compile(&scene, &limits, base_dir)?);
     let t = std::time::Instant::now();
     let (reference, reference_note) = match &cfg.reference {
         Some(path) => (load_reference(path, cfg.width, cfg.height)?, format!("given: {}", path.display())),
@@ -342,18 +350,21 @@ pub fn write_outputs(results: &[SceneResult], cfg: &BenchConfig) -> anyhow::Resu
     Ok(written)
 }
 
+/// A scene to benchmark: its label, its message and, for a scene file, its directory.
+pub type NamedScene = (String, proto::Scene, Option<std::path::PathBuf>);
+
 /// Scenes named on the command line: built-in names or scene files.
-pub fn resolve_scenes(names: &[String]) -> anyhow::Result<Vec<(String, proto::Scene)>> {
+pub fn resolve_scenes(names: &[String]) -> anyhow::Result<Vec<NamedScene>> {
     names
         .iter()
         .map(|n| {
             if Path::new(n).is_file() {
                 let s = crate::scene::json::load_scene(Path::new(n))?;
                 let label = Path::new(n).file_stem().map_or(n.clone(), |s| s.to_string_lossy().into_owned());
-                Ok((label, s))
+                Ok((label, s, Path::new(n).parent().map(Path::to_path_buf)))
             } else {
                 crate::scene::builtin::get(n)
-                    .map(|s| (n.clone(), s))
+                    .map(|s| (n.clone(), s, None))
                     .ok_or_else(|| anyhow::anyhow!("{n}: no scene file or built-in scene of that name"))
             }
         })
@@ -391,8 +402,8 @@ mod tests {
             command: "test".into(),
         };
         let scenes = resolve_scenes(&["curved".to_string()]).unwrap();
-        let (name, scene) = scenes.into_iter().next().unwrap();
-        let r = bench_scene(&name, scene.clone(), &cfg).unwrap();
+        let (name, scene, _) = scenes.into_iter().next().unwrap();
+        let r = bench_scene(&name, scene.clone(), None, &cfg).unwrap();
         assert!(r.reference_note.contains("rendered"));
         assert_eq!(r.curves.len(), 2);
         assert_eq!(r.curves[0].points.len(), 4);
@@ -417,7 +428,7 @@ mod tests {
         assert_eq!(doc["scenes"][0]["medians"].as_array().unwrap().len(), 6);
         assert_eq!(std::fs::read_to_string(out.join("t.csv")).unwrap().lines().count(), 1 + 12);
         assert!(std::fs::read_to_string(out.join("t.md")).unwrap().contains("| aaf | 1 |"));
-        let again = bench_scene(&name, scene, &cfg).unwrap();
+        let again = bench_scene(&name, scene, None, &cfg).unwrap();
         assert!(again.reference_note.contains("cached"));
         std::fs::remove_dir_all(&out).unwrap();
     }

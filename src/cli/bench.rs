@@ -470,9 +470,9 @@ fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
         command: std::env::args().collect::<Vec<_>>().join(" "),
     };
     let mut results = Vec::new();
-    for (name, scene) in resolve_scenes(&names)? {
+    for (name, scene, dir) in resolve_scenes(&names)? {
         eprintln!("bench: {name} ...");
-        results.push(bench_scene(&name, scene, &cfg)?);
+        results.push(bench_scene(&name, scene, dir.as_deref(), &cfg)?);
     }
     print!("{}", crate::bench::run::markdown(&results, &cfg));
     for p in write_outputs(&results, &cfg)? {
