@@ -595,3 +595,36 @@ async fn denoiser_inputs_stream_with_every_frame() {
     // Without the request, none are traced or sent.
     assert!(render_locally(&cornell(32, 24, 1, 5), "cornell").aovs.is_none());
 }
+
+/// The `bandwidth` method's maps over the wire: the layers follow the others and equal a local
+/// render's bit for bit, the shaded and full-resolution sample counts cross with each frame,
+/// and another method's stream, asked for the same layers, assembles into frames without them.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn bandwidth_maps_stream_with_every_frame() {
+    let server = TestServer::start().await;
+    let mut req = cornell(32, 24, 2, 3);
+    req.scene_source = Some(SceneSource::Builtin("sky-spheres".into()));
+    req.settings.as_mut().unwrap().method = Method::Bandwidth as i32;
+    req.outputs = Some(OutputSelection { color: true, spp: true, bandwidth: true, level: true, ..Default::default() });
+    let got = within(120, "bandwidth render", async { collect(&mut server.client().await, req.clone()).await })
+        .await
+        .expect("render");
+    assert_eq!(got.started.layers, vec!["color", "spp", "bandwidth", "level"]);
+    assert_eq!(got.frames.len(), 2);
+    let last = got.frames.last().unwrap();
+    let local = render_locally(&req, "sky-spheres");
+    let (remote_maps, local_maps) = (last.shading.as_ref().unwrap(), local.shading.as_ref().unwrap());
+    assert_eq!(remote_maps.bandwidth, local_maps.bandwidth);
+    assert_eq!(remote_maps.level, local_maps.level);
+    assert_eq!(last.color, local.color);
+    let stats = (last.stats.shaded_points, last.stats.full_resolution_points);
+    assert_eq!(stats, (local.stats.shaded_points, local.stats.full_resolution_points));
+    // Pass 1 traces one camera sample per pixel, as `uniform`'s second pass.
+    assert!(stats.0 > 0 && stats.0 <= stats.1 && stats.1 == 32 * 24, "{stats:?}");
+    // `uniform` has no such maps: zeros on the wire, none in the assembled frames.
+    req.settings.as_mut().unwrap().method = Method::Uniform as i32;
+    let got = within(120, "uniform render", async { collect(&mut server.client().await, req.clone()).await })
+        .await
+        .expect("render");
+    assert!(got.frames.iter().all(|f| f.shading.is_none() && f.stats.full_resolution_points == 0));
+}

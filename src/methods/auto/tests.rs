@@ -2,27 +2,15 @@
 //! energy against plain Monte Carlo, the narrowing of every filter, the exact unshadowed light,
 //! the gain of the filter, and independence from the thread count.
 use super::component_names;
-use crate::methods::tests::{builtin, frames};
+use crate::methods::tests::{all_frames, builtin, frames};
 use crate::pipeline::frame::Frame;
-use crate::pipeline::job::{CancelToken, Halt, Integrand, Method, RenderJob};
-use crate::pipeline::progressive::render;
+use crate::pipeline::job::{Halt, Integrand, Method, RenderJob};
 use crate::render::light::{polygon_irradiance, EmissionProfile, RectLight};
 use crate::render::material::Material;
 use crate::render::scene::{CameraDesc, Scene, SceneBuilder};
 use crate::render::texture::Texture;
 use glam::Vec3;
 use std::sync::Arc;
-
-/// Every frame of a job of `passes` passes (the first, 1 spp, included).
-fn all_frames(j: &RenderJob) -> Vec<Frame> {
-    let mut out = Vec::new();
-    render(j, &CancelToken::new(), &mut |f| {
-        out.push(f.clone());
-        true
-    })
-    .expect("render");
-    out
-}
 
 fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64, bounces: u32) -> RenderJob {
     let mut j = RenderJob::new(scene, method, Halt::passes(passes));
