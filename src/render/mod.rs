@@ -10,6 +10,7 @@ pub mod aovs;
 pub mod camera;
 pub mod distribution;
 pub mod environment;
+pub mod fast_math;
 pub mod filter;
 pub mod frame_basis;
 pub mod gbuffer;

@@ -372,7 +372,7 @@ impl Strategy for AutoStrategy {
             self.update_slopes(ctx.job.aaf.fill_radius as usize);
             let (sums, opts) = (&self.sums, &self.opts);
             if let Some(w) = self.widths.as_mut() {
-                w.update_reflectors(ctx, sums, opts);
+                w.update_reflectors(sums, opts);
             }
         }
         let mut frame = self.frame(ctx);

@@ -253,3 +253,55 @@ fn mu_grows_as_the_sixth_root_of_the_samples() {
     // No samples count as one.
     assert_eq!(o.mu(1.0, 0.0), o.mu(1.0, 1.0));
 }
+
+/// The reflector distances of the separable box sums equal a visit of every window, on a grid
+/// of several objects, with pixels that saw nothing and invalid ones, at several radii.
+#[test]
+fn neighbourhood_reflectors_equal_a_visit_of_every_window() {
+    use super::widths::{neighbourhood_reflectors, Seen};
+    use crate::render::test_rng::Rng;
+    let (w, h) = (23, 17);
+    let mut rng = Rng(13);
+    let pixels: Vec<Seen> = (0..w * h)
+        .map(|p| {
+            let (x, y) = (p % w, p / w);
+            let object = if x < 9 {
+                0
+            } else if y < 8 {
+                1
+            } else {
+                2 + (x + y) as u32 % 2 * u32::from(x > 18)
+            };
+            let z = (rng.f() > 0.3).then(|| {
+                let a = 0.1 + 3.0 * rng.f();
+                (a, a + 2.0 * rng.f())
+            });
+            Seen { valid: rng.f() > 0.1, object, z }
+        })
+        .collect();
+    for radius in [0, 1, 3, 6] {
+        let fast = neighbourhood_reflectors(w, h, radius, &|p| pixels[p]);
+        for p in 0..w * h {
+            let (x, y) = ((p % w) as i64, (p / w) as i64);
+            let mut sum = (0u32, 0.0f64, 0.0f64);
+            for q in 0..w * h {
+                let (qx, qy) = ((q % w) as i64, (q / w) as i64);
+                let inside = (qx - x).abs() <= radius as i64 && (qy - y).abs() <= radius as i64;
+                if let (true, true, Some((a, b))) =
+                    (inside && q != p, pixels[q].object == pixels[p].object, pixels[q].z)
+                {
+                    sum = (sum.0 + 1, sum.1 + a as f64, sum.2 + b as f64);
+                }
+            }
+            let want =
+                (pixels[p].valid && sum.0 > 0).then(|| ((sum.1 / sum.0 as f64) as f32, (sum.2 / sum.0 as f64) as f32));
+            match (fast[p], want) {
+                (Some(a), Some(b)) => assert!(
+                    (a.0 - b.0).abs() <= 1e-6 * b.0 && (a.1 - b.1).abs() <= 1e-6 * b.1,
+                    "radius {radius}, pixel {p}: {a:?} vs {b:?}"
+                ),
+                (a, b) => assert_eq!(a, b, "radius {radius}, pixel {p}"),
+            }
+        }
+    }
+}

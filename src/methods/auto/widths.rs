@@ -33,35 +33,12 @@ impl Widths {
     }
 
     /// Recomputes each pixel's reflector distances from its neighbours on the same object.
-    pub fn update_reflectors(&mut self, ctx: &PassContext, sums: &[PixelSums], opts: &AutoOptions) {
+    pub fn update_reflectors(&mut self, sums: &[PixelSums], opts: &AutoOptions) {
         let g = &self.gbuffer;
-        let (w, h) = (g.width as usize, g.height as usize);
-        let r = opts.reflector_radius;
-        let _ = ctx;
-        self.reflectors = (0..w * h)
-            .into_par_iter()
-            .map(|p| {
-                let c = &g.pixels[p];
-                if !c.is_valid() {
-                    return None;
-                }
-                let (x, y) = (p % w, p / w);
-                let (mut count, mut z_min, mut z_max) = (0u32, 0.0f64, 0.0f64);
-                for ny in y.saturating_sub(r)..(y + r + 1).min(h) {
-                    for nx in x.saturating_sub(r)..(x + r + 1).min(w) {
-                        let q = ny * w + nx;
-                        let s = &sums[q];
-                        if q == p || g.pixels[q].object != c.object || !s.z_min.is_finite() {
-                            continue;
-                        }
-                        count += 1;
-                        z_min += s.z_min as f64;
-                        z_max += s.z_max as f64;
-                    }
-                }
-                (count > 0).then(|| ((z_min / count as f64) as f32, (z_max / count as f64) as f32))
-            })
-            .collect();
+        self.reflectors = neighbourhood_reflectors(g.width as usize, g.height as usize, opts.reflector_radius, &|p| {
+            let (c, s) = (&g.pixels[p], &sums[p]);
+            Seen { valid: c.is_valid(), object: c.object, z: s.z_min.is_finite().then_some((s.z_min, s.z_max)) }
+        });
     }
 
     /// The screen width (standard deviation, pixels) of a light's visibility at each pixel, from
@@ -131,4 +108,69 @@ fn finite_px(w: f64, max: f64) -> f32 {
     } else {
         0.0
     }
+}
+
+/// What `neighbourhood_reflectors` needs of a pixel: whether it is filtered, its object, and
+/// the nearest and farthest reflector its analysis samples saw (None: none).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Seen {
+    pub valid: bool,
+    pub object: u32,
+    pub z: Option<(f32, f32)>,
+}
+
+/// Per valid pixel, the means of the nearest and farthest reflectors seen by the pixels of the
+/// same object in the (2 radius + 1)^2 window around it, the pixel itself left out; None where
+/// none was seen. Where the whole window is one object (most pixels), from separable box sums;
+/// elsewhere by visiting the window.
+pub(super) fn neighbourhood_reflectors(
+    w: usize,
+    h: usize,
+    radius: usize,
+    seen: &(dyn Fn(usize) -> Seen + Sync),
+) -> Vec<Option<(f32, f32)>> {
+    let pixels: Vec<Seen> = (0..w * h).into_par_iter().map(seen).collect();
+    // Sums of (count, z_min, z_max) and the lowest and highest object over each window.
+    let own = |s: &Seen| s.z.map_or([0.0; 3], |(a, b)| [1.0, a as f64, b as f64]);
+    let entries: Vec<([f64; 3], u32, u32)> = pixels.par_iter().map(|s| (own(s), s.object, s.object)).collect();
+    let add = |a: ([f64; 3], u32, u32), b: &([f64; 3], u32, u32)| {
+        ([a.0[0] + b.0[0], a.0[1] + b.0[1], a.0[2] + b.0[2]], a.1.min(b.1), a.2.max(b.2))
+    };
+    let empty = ([0.0; 3], u32::MAX, 0);
+    let across: Vec<([f64; 3], u32, u32)> = (0..w * h)
+        .into_par_iter()
+        .map(|p| {
+            let (x, row) = (p % w, p - p % w);
+            (x.saturating_sub(radius)..(x + radius + 1).min(w)).fold(empty, |acc, nx| add(acc, &entries[row + nx]))
+        })
+        .collect();
+    (0..w * h)
+        .into_par_iter()
+        .map(|p| {
+            let c = &pixels[p];
+            if !c.valid {
+                return None;
+            }
+            let (x, y) = (p % w, p / w);
+            let window = (y.saturating_sub(radius)..(y + radius + 1).min(h))
+                .fold(empty, |acc, ny| add(acc, &across[ny * w + x]));
+            let [count, z_min, z_max] = if window.1 == c.object && window.2 == c.object {
+                let o = own(c);
+                [window.0[0] - o[0], window.0[1] - o[1], window.0[2] - o[2]]
+            } else {
+                let mut sum = [0.0f64; 3];
+                for ny in y.saturating_sub(radius)..(y + radius + 1).min(h) {
+                    for nx in x.saturating_sub(radius)..(x + radius + 1).min(w) {
+                        let q = ny * w + nx;
+                        if q != p && pixels[q].object == c.object {
+                            let e = own(&pixels[q]);
+                            sum = [sum[0] + e[0], sum[1] + e[1], sum[2] + e[2]];
+                        }
+                    }
+                }
+                sum
+            };
+            (count > 0.5).then(|| ((z_min / count) as f32, (z_max / count) as f32))
+        })
+        .collect()
 }

@@ -5,8 +5,10 @@
 //! logarithms with one exponential per neighbour; `filter::filter` with `Gather::Separable` is
 //! its oracle (tests below). What makes it cheaper: f32, guides packed into 24 bytes with the
 //! lobe's sharpness and its logarithm precomputed, the spatial factor tabled per centre, and the
-//! ratio term skipped for lobes of equal sharpness (every pair of diffuse pixels).
+//! ratio term skipped for lobes of equal sharpness (every pair of diffuse pixels), and an
+//! exponential and logarithm that vectorise (`render::fast_math`).
 use super::filter::Guide;
+use crate::render::fast_math::{exp_neg, ln_pos};
 use rayon::prelude::*;
 
 /// One pixel's guide, packed (see `filter::Guide`).
@@ -61,35 +63,6 @@ pub struct PackedOptions {
     pub max_radius: usize,
 }
 
-/// e^x for x <= 0 (relative error below 2e-5; 0 below -87): 2^(x log2 e) as an exponent in
-/// the float's bits times a polynomial for the fraction, so that the gather's loop has no call.
-#[inline(always)]
-fn exp_neg(x: f32) -> f32 {
-    let t = x.max(-87.0) * std::f32::consts::LOG2_E;
-    // floor(t) without a libm call: truncation, one less for negative non-integers.
-    let truncated = t as i32;
-    let i = truncated - i32::from(t < truncated as f32);
-    let f = t - i as f32;
-    // 2^f = e^(f ln 2), Taylor to degree 6 (error ln2^7 / 7! < 1.6e-5 on [0, 1)).
-    let p = 1.0
-        + f * (std::f32::consts::LN_2
-            + f * (0.240_226_5 + f * (0.055_504_11 + f * (0.009_618_129 + f * (0.001_333_355 + f * 0.000_154_035)))));
-    f32::from_bits(((i + 127) << 23) as u32) * p
-}
-
-/// ln x for positive normal x (absolute error below 1e-6): the exponent from the float's bits,
-/// the mantissa m in [1, 2) through ln m = 2 atanh((m - 1) / (m + 1)), a series in its square.
-#[inline(always)]
-fn ln_pos(x: f32) -> f32 {
-    let bits = x.to_bits();
-    let e = ((bits >> 23) & 0xff) as i32 - 127;
-    let m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000);
-    let z = (m - 1.0) / (m + 1.0);
-    let z2 = z * z;
-    let series = 2.0 * z * (1.0 + z2 * (1.0 / 3.0 + z2 * (1.0 / 5.0 + z2 * (1.0 / 7.0 + z2 * (1.0 / 9.0)))));
-    e as f32 * std::f32::consts::LN_2 + series
-}
-
 /// ln of Eq. 12's weight of lobes with sharpness (s_i, s_j), their inverses and the dot of their
 /// axes, in a symmetric form without a min or max: with rho + 1/rho = s_i/s_j + s_j/s_i,
 /// `ln(4 rho / (1 + rho)^2) = -ln((2 + rho + 1/rho) / 4)` (0 for equal sharpness: every pair of
@@ -129,11 +102,12 @@ fn transpose<T: Copy + Default + Send + Sync>(v: &[T], width: usize, height: usi
     out
 }
 
-/// Taps are weighed in groups of this many lanes (fixed-size arrays the compiler vectorises).
+/// Centres are gathered this many at a time, one per lane (fixed-size arrays the compiler
+/// vectorises).
 const LANES: usize = 8;
 
-/// One row in structure-of-arrays form, padded with invalid pixels (weight 0) so that every
-/// centre's taps are whole groups of `LANES` inside it.
+/// One row in structure-of-arrays form, padded with invalid pixels (weight 0) so that the taps
+/// of every block of `LANES` centres lie inside it.
 #[derive(Default)]
 struct Row {
     axis: [Vec<f32>; 3],
@@ -216,59 +190,83 @@ unsafe fn row_avx2(row: &mut Row, sigma: &[f32], out: &mut [[f32; 3]], pad: usiz
     row_generic(row, sigma, out, pad, o)
 }
 
-/// Gathers every centre of one loaded row.
+/// Gathers every centre of one loaded row, `LANES` neighbouring centres at a time.
 #[inline(always)]
 fn row_generic(row: &mut Row, sigma: &[f32], out: &mut [[f32; 3]], pad: usize, o: &PackedOptions) {
-    for (x, out) in out.iter_mut().enumerate() {
-        let (k, sigma) = (pad + x, sigma[x]);
-        if row.valid[k] == 0.0 || !(sigma > 0.0) {
-            continue;
+    for (b, out) in out.chunks_mut(LANES).enumerate() {
+        let x0 = b * LANES;
+        let sigma = std::array::from_fn(|l| sigma.get(x0 + l).copied().unwrap_or(0.0));
+        let block = if row.uniform {
+            gather_block::<true>(row, pad + x0, sigma, o)
+        } else {
+            gather_block::<false>(row, pad + x0, sigma, o)
+        };
+        for (l, out) in out.iter_mut().enumerate() {
+            if let Some(v) = block[l] {
+                *out = v;
+            }
         }
-        *out = if row.uniform { gather_one::<true>(row, k, sigma, o) } else { gather_one::<false>(row, k, sigma, o) };
     }
 }
 
-/// The gathered value of the centre at padded position `k` with width `sigma`.
+/// The gathered values of the `LANES` centres from padded position `k0` with widths `sigma`,
+/// one centre per lane, so that the taps are the loop and no sum crosses lanes; None for a
+/// centre that keeps its value (invalid, or a width of 0). Each centre weighs the taps within
+/// its own radius ceil(3 sigma); the loop runs to the largest.
 #[inline(always)]
-fn gather_one<const UNIFORM: bool>(row: &Row, k: usize, sigma: f32, o: &PackedOptions) -> [f32; 3] {
-    let r = ((3.0 * sigma).ceil() as usize).clamp(1, o.max_radius.max(1));
-    let groups = (2 * r + 1).div_ceil(LANES);
-    let inv_2s2 = 1.0 / (2.0 * sigma * sigma);
-    let c_axis = [row.axis[0][k], row.axis[1][k], row.axis[2][k]];
-    let (c_s, c_inv, c_depth) = (row.sharpness[k], row.inverse[k], row.depth[k]);
-    let inv_2z2 = 1.0 / (2.0 * o.sigma_z2_relative * c_depth * c_depth).max(f32::MIN_POSITIVE);
+fn gather_block<const UNIFORM: bool>(
+    row: &Row,
+    k0: usize,
+    sigma: [f32; LANES],
+    o: &PackedOptions,
+) -> [Option<[f32; 3]>; LANES] {
+    let lane = |v: &Vec<f32>, at: usize| -> [f32; LANES] { v[at..at + LANES].try_into().expect("LANES taps") };
+    let max_radius = o.max_radius.max(1);
+    let filtered: [bool; LANES] = std::array::from_fn(|l| row.valid[k0 + l] != 0.0 && sigma[l] > 0.0);
+    let radius: [usize; LANES] =
+        std::array::from_fn(|l| if filtered[l] { ((3.0 * sigma[l]).ceil() as usize).clamp(1, max_radius) } else { 0 });
+    let reach = radius.iter().copied().max().unwrap_or(0);
+    if reach == 0 {
+        return [None; LANES];
+    }
+    let r_f: [f32; LANES] = std::array::from_fn(|l| radius[l] as f32);
+    let inv_2s2: [f32; LANES] =
+        std::array::from_fn(|l| if filtered[l] { 1.0 / (2.0 * sigma[l] * sigma[l]) } else { 0.0 });
+    let (cx, cy, cz) = (lane(&row.axis[0], k0), lane(&row.axis[1], k0), lane(&row.axis[2], k0));
+    let (c_s, c_inv, c_depth) = (lane(&row.sharpness, k0), lane(&row.inverse, k0), lane(&row.depth, k0));
+    let inv_2z2: [f32; LANES] =
+        std::array::from_fn(|l| 1.0 / (2.0 * o.sigma_z2_relative * c_depth[l] * c_depth[l]).max(f32::MIN_POSITIVE));
     let beta = o.beta;
     let (mut sum, mut wsum) = ([[0.0f32; LANES]; 3], [0.0f32; LANES]);
-    for g in 0..groups {
-        let at = k - r + g * LANES;
-        let lane = |v: &Vec<f32>| -> [f32; LANES] { v[at..at + LANES].try_into().expect("LANES taps") };
-        let (ax, ay, az) = (lane(&row.axis[0]), lane(&row.axis[1]), lane(&row.axis[2]));
-        let (s, inv, depth, valid) = (lane(&row.sharpness), lane(&row.inverse), lane(&row.depth), lane(&row.valid));
-        let (vx, vy, vz) = (lane(&row.value[0]), lane(&row.value[1]), lane(&row.value[2]));
+    for i in 0..=2 * reach {
+        // Every lane's tap at offset d = i - reach from its own centre.
+        let at = k0 + i - reach;
+        let d = i as f32 - reach as f32;
+        let (ax, ay, az) = (lane(&row.axis[0], at), lane(&row.axis[1], at), lane(&row.axis[2], at));
+        let (s, inv, depth, valid) =
+            (lane(&row.sharpness, at), lane(&row.inverse, at), lane(&row.depth, at), lane(&row.valid, at));
+        let (vx, vy, vz) = (lane(&row.value[0], at), lane(&row.value[1], at), lane(&row.value[2], at));
         for l in 0..LANES {
-            // The screen term of tap k - r + i; past 2r, minus infinity (weight 0).
-            let i = g * LANES + l;
-            let d = i as f32 - r as f32;
-            let screen = if i <= 2 * r { -d * d * inv_2s2 } else { f32::NEG_INFINITY };
-            let dot = c_axis[0] * ax[l] + c_axis[1] * ay[l] + c_axis[2] * az[l];
-            let dz = c_depth - depth[l];
+            // The screen term; past the lane's radius, minus infinity (weight 0).
+            let screen = if d.abs() <= r_f[l] { -d * d * inv_2s2[l] } else { f32::NEG_INFINITY };
+            let dot = cx[l] * ax[l] + cy[l] * ay[l] + cz[l] * az[l];
+            let dz = c_depth[l] - depth[l];
             let lobe = if UNIFORM {
                 // Equal sharpness s on valid lanes: u / v = s / 2, no sharpness term.
-                (0.5 * beta * c_s * (dot.clamp(-1.0, 1.0) - 1.0)).min(0.0)
+                (0.5 * beta * c_s[l] * (dot.clamp(-1.0, 1.0) - 1.0)).min(0.0)
             } else {
-                ln_lobe((c_s, s[l]), (c_inv, inv[l]), dot, beta)
+                ln_lobe((c_s[l], s[l]), (c_inv[l], inv[l]), dot, beta)
             };
-            let ln_w = screen - dz * dz * inv_2z2 + lobe;
-            let w = exp_neg(ln_w) * valid[l];
+            let ln_w = screen - dz * dz * inv_2z2[l] + lobe;
+            let w = exp_neg(-ln_w) * valid[l];
             sum[0][l] += w * vx[l];
             sum[1][l] += w * vy[l];
             sum[2][l] += w * vz[l];
             wsum[l] += w;
         }
     }
-    // The centre's own weight is 1 (every factor is), so the sum of weights is at least 1.
-    let total: f32 = wsum.iter().sum();
-    sum.map(|lanes| lanes.iter().sum::<f32>() / total)
+    // A filtered centre's own weight is 1 (every factor is), so its sum of weights is at least 1.
+    std::array::from_fn(|l| filtered[l].then(|| [0, 1, 2].map(|c| sum[c][l] / wsum[l])))
 }
 
 #[cfg(test)]
@@ -360,22 +358,6 @@ mod tests {
             let ln = ln_lobe((pa.sharpness, pb.sharpness), (1.0 / pa.sharpness, 1.0 / pb.sharpness), dot, 20.0);
             let mine = (ln as f64).exp();
             assert!((exact - mine).abs() < 1e-4 + 1e-3 * exact, "{exact} vs {mine}");
-        }
-    }
-
-    #[test]
-    fn the_fast_exponential_and_logarithm_are_accurate() {
-        for i in 0..=100_000 {
-            let x = -90.0 * i as f32 / 100_000.0;
-            let (exact, fast) = ((x as f64).exp(), exp_neg(x) as f64);
-            assert!((fast - exact).abs() <= 2e-5 * exact + 1e-37, "exp({x}): {fast} vs {exact}");
-        }
-        assert_eq!(exp_neg(0.0), 1.0);
-        assert_eq!(exp_neg(f32::NEG_INFINITY), exp_neg(-87.0));
-        for i in 0..=100_000 {
-            let x = 1e-6f32 * 1e12f32.powf(i as f32 / 100_000.0);
-            let (exact, fast) = ((x as f64).ln(), ln_pos(x) as f64);
-            assert!((fast - exact).abs() <= 2e-6 * (1.0 + exact.abs()), "ln({x}): {fast} vs {exact}");
         }
     }
 

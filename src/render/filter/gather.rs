@@ -16,6 +16,7 @@
 //! to f64 rounding. On x86-64 both passes are also compiled for AVX2 and FMA, chosen at run
 //! time.
 use super::{radius, FilterKernel, FilterOptions};
+use crate::render::fast_math::exp_neg;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -23,26 +24,6 @@ use rayon::prelude::*;
 pub(super) const LANES: usize = 8;
 /// Weights are cut at x = 18 (6 standard deviations: below 1.6e-8, they change nothing).
 pub(super) const EXP_CUTOFF: f64 = 18.0;
-
-/// e^-x for x >= 0 in f32, branch-free so that it vectorises: e^-x = 2^-n e^-r with
-/// n = round(x / ln 2) and |r| <= ln 2 / 2, e^-r by its Taylor series to r^6 (truncation
-/// error 0.35^7 / 7! = 1.2e-7, an ulp). x is clamped to the cut-off first (the caller masks
-/// those lanes), which keeps 2^-n a normal number.
-#[inline(always)]
-fn exp_neg(x: f32) -> f32 {
-    // Adding 1.5 * 2^23 rounds to an integer held in the low mantissa bits (no SSE4.1 round).
-    const SHIFT: f32 = 12_582_912.0;
-    // ln 2 split so that n * LN2_HI is exact for the n that occur (n <= 26).
-    const LN2_HI: f32 = 0.693_145_75;
-    const LN2_LO: f32 = 1.428_606_8e-6;
-    let x = x.min(EXP_CUTOFF as f32);
-    let t = x * std::f32::consts::LOG2_E + SHIFT;
-    let n = t - SHIFT;
-    let r = (x - n * LN2_HI) - n * LN2_LO;
-    let p = 1.0 - r * (1.0 - r * (0.5 - r * (1.0 / 6.0 - r * (1.0 / 24.0 - r * (1.0 / 120.0 - r * (1.0 / 720.0))))));
-    let n_bits = t.to_bits().wrapping_sub(SHIFT.to_bits());
-    p * f32::from_bits((127u32.wrapping_sub(n_bits)) << 23)
-}
 
 /// Eight pixels' positions, normals and objects (the object 0 for all when the check is off).
 #[derive(Clone, Copy, Default)]
@@ -422,20 +403,6 @@ impl Gather<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn exp_neg_matches_libm_over_the_filter_range() {
-        let mut worst = 0.0f64;
-        for i in 0..=180_000 {
-            let x = (i as f32 * 1e-4).min(EXP_CUTOFF as f32);
-            let (got, want) = (exp_neg(x) as f64, (-(x as f64)).exp());
-            worst = worst.max(((got - want) / want).abs());
-        }
-        assert!(worst < 3e-7, "worst relative error {worst:e}");
-        assert_eq!(exp_neg(0.0), 1.0);
-        // Past the cut-off the value is clamped (and masked by the caller), never 0 or NaN.
-        assert!(exp_neg(1e30) > 0.0 && exp_neg(f32::INFINITY).is_finite());
-    }
 
     #[test]
     fn generic_code_gives_the_same_image_as_the_detected_instruction_set() {
