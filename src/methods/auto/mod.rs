@@ -165,6 +165,7 @@ impl AutoStrategy {
             self.glossy_guides = packed(tokuyoshi::guides(ctx, &g, true, &ctx.job.lobe, kappa));
         }
         self.widths = Some(Widths::new(ctx, &g));
+        tracing::debug!(seconds = t.elapsed().as_secs_f64(), "auto: guides and pixel sizes");
         self.method_seconds += t.elapsed().as_secs_f64();
         self.gbuffer = Some(g);
     }
