@@ -170,21 +170,43 @@ impl AutoStrategy {
         self.gbuffer = Some(g);
     }
 
-    /// Traces every pixel up to `target` samples, or up to its own count once they adapt: then
-    /// first every pixel up to the pass's uniform share and only then the adaptive extras, so
-    /// that a pass the deadline cuts has raised the whole image before its penumbrae.
-    fn trace(&mut self, ctx: &PassContext, target: u32) -> Result<bool, RenderError> {
+    /// Traces every pixel from `before` up to `target` samples, or up to its own count once they
+    /// adapt: then first every pixel up to the pass's uniform share and only then the adaptive
+    /// extras, so that a pass the deadline cuts has raised the whole image before its
+    /// penumbrae. The even part runs in `ROUNDS` sweeps over the image (`rounds`).
+    fn trace(&mut self, ctx: &PassContext, before: u32, target: u32) -> Result<bool, RenderError> {
         let nl = self.lights.len();
         let Some(counts) =
             counts::adaptive_targets(&self.opts, target, ctx.job.bounces, &self.sums, &self.light_sums, nl)
         else {
-            return self.trace_to(ctx, &|_| target);
+            return self.trace_rounds(ctx, before, target, &|_| target);
         };
         let uniform = counts::uniform_share(&self.opts, target);
-        if !self.trace_to(ctx, &|p| counts[p].min(uniform))? {
+        if !self.trace_rounds(ctx, before, uniform, &|p| counts[p])? {
             return Ok(false);
         }
         self.trace_to(ctx, &|p| counts[p])
+    }
+
+    /// Traces every pixel p up to min(`count(p)`, `target`) in the sweeps of `rounds`: a pass
+    /// the deadline cuts then leaves counts within a round of each other instead of a band of
+    /// pixels at the pass's target beside the rest at the last one's. The error of a mean over
+    /// the image goes as the mean of 1 / n over its pixels, which for a given number of samples
+    /// is least when the counts are equal. Each sample's numbers depend on its index alone, so
+    /// a complete pass traces the same samples as one sweep would.
+    fn trace_rounds(
+        &mut self,
+        ctx: &PassContext,
+        before: u32,
+        target: u32,
+        count: &(dyn Fn(usize) -> u32 + Sync),
+    ) -> Result<bool, RenderError> {
+        for round in rounds(before, target) {
+            if !self.trace_to(ctx, &|p| count(p).min(round))? {
+                return Ok(false);
+            }
+        }
+        Ok(true)
     }
 
     /// Traces every pixel p up to `count(p)` samples.
@@ -348,6 +370,19 @@ impl AutoStrategy {
     }
 }
 
+/// Sweeps over the image per pass (`AutoStrategy::trace_rounds`).
+const ROUNDS: u32 = 4;
+
+/// The counts a pass from `before` to `target` samples per pixel sweeps the image up to: about
+/// equal steps, `ROUNDS` of them at most (fewer when the pass adds fewer samples), the last
+/// one `target`.
+fn rounds(before: u32, target: u32) -> Vec<u32> {
+    let step = target.saturating_sub(before).div_ceil(ROUNDS).max(1);
+    let mut out: Vec<u32> = (1..ROUNDS).map(|k| before.saturating_add(k * step)).filter(|&c| c < target).collect();
+    out.push(target);
+    out
+}
+
 /// Samples per pixel after pass `pass`: `initial` in pass 0, four times as many per pass after
 /// (1, 4, 16, 64, ...), at most `max_mean_spp` (0: no cap). Every frame costs a filter, so the
 /// passes grow faster than `uniform`'s doubling: fewer frames at a budget, the same samples.
@@ -365,7 +400,7 @@ impl Strategy for AutoStrategy {
         let before = self.target;
         self.target = pass_target(ctx.job.initial_spp, ctx.pass, ctx.job.halt.max_mean_spp).max(before);
         let traced = Instant::now();
-        let complete = self.trace(ctx, self.target)?;
+        let complete = self.trace(ctx, before, self.target)?;
         let t = Instant::now();
         tracing::debug!(pass = ctx.pass, spp = self.target, seconds = (t - traced).as_secs_f64(), "auto: traced");
         // The analysis samples just added move the slopes and reflector distances.
