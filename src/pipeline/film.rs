@@ -85,6 +85,40 @@ impl Tally {
     }
 }
 
+/// Visits every pixel of `pixels` (row-major, `width` wide) as `visit(x, y, pixel, tally)`, in
+/// parallel over bands of `BAND_ROWS` rows, until `stop` asks. Returns the bands' tally (not
+/// complete if the stop came first), or the cancellation.
+pub fn trace_bands<P: Send>(
+    pixels: &mut [P],
+    width: usize,
+    stop: &StopCheck,
+    visit: impl Fn(usize, usize, &mut P, &mut Tally) + Sync,
+) -> Result<Tally, RenderError> {
+    let w = width.max(1);
+    let tallies: Vec<Tally> = pixels
+        .par_chunks_mut(w * BAND_ROWS)
+        .enumerate()
+        .map(|(band, rows)| {
+            let mut t = Tally { complete: true, ..Tally::default() };
+            for (r, row) in rows.chunks_mut(w).enumerate() {
+                let y = band * BAND_ROWS + r;
+                for (x, px) in row.iter_mut().enumerate() {
+                    if stop.should_stop() {
+                        t.complete = false;
+                        return t;
+                    }
+                    visit(x, y, px, &mut t);
+                }
+            }
+            t
+        })
+        .collect();
+    if stop.is_cancelled() {
+        return Err(RenderError::Cancelled);
+    }
+    Ok(Tally::total(&tallies))
+}
+
 #[derive(Clone, Debug)]
 pub struct Film {
     pub width: u32,
@@ -111,59 +145,39 @@ impl Film {
         let (seed, bounces, integrand, pixel_centers) = (job.seed, job.bounces, job.integrand, job.pixel_centers);
         let w = self.width as usize;
         let cam = &job.view;
-        let tallies: Vec<Tally> = self
-            .pixels
-            .par_chunks_mut(w * BAND_ROWS)
-            .enumerate()
-            .map(|(band, rows)| {
-                let mut t = Tally { complete: true, ..Tally::default() };
-                for (r, row) in rows.chunks_mut(w).enumerate() {
-                    let y = band * BAND_ROWS + r;
-                    for (x, px) in row.iter_mut().enumerate() {
-                        if stop.should_stop() {
-                            t.complete = false;
-                            return t;
-                        }
-                        let index = y * w + x;
-                        let n = count(index);
-                        // With pixel centres, every sample of the pass starts at the same hit.
-                        let centre = cam.direction(x as f32 + 0.5, y as f32 + 0.5);
-                        let centre_hit = (pixel_centers && n > 0).then(|| {
-                            t.rays += 1;
-                            scene.intersect(cam.position, centre, 0.0)
-                        });
-                        for _ in 0..n {
-                            let mut sampler = PixelSampler::new(seed, index as u32, px.taken);
-                            px.taken += 1;
-                            let j = sampler.next_2d();
-                            let (dir, hit) = match centre_hit {
-                                Some(hit) => (centre, hit),
-                                None => {
-                                    let dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
-                                    t.rays += 1;
-                                    (dir, scene.intersect(cam.position, dir, 0.0))
-                                }
-                            };
-                            let p = sample_from(scene, hit, -dir, integrand, bounces, &mut sampler);
-                            t.rays += p.rays as u64;
-                            if p.radiance.is_finite() {
-                                for c in 0..3 {
-                                    px.sum[c] += p.radiance[c] as f64;
-                                }
-                                px.n += 1;
-                            } else {
-                                t.dropped += 1;
-                            }
-                        }
+        trace_bands(&mut self.pixels, w, stop, |x, y, px, t| {
+            let index = y * w + x;
+            let n = count(index);
+            // With pixel centres, every sample of the pass starts at the same hit.
+            let centre = cam.direction(x as f32 + 0.5, y as f32 + 0.5);
+            let centre_hit = (pixel_centers && n > 0).then(|| {
+                t.rays += 1;
+                scene.intersect(cam.position, centre, 0.0)
+            });
+            for _ in 0..n {
+                let mut sampler = PixelSampler::new(seed, index as u32, px.taken);
+                px.taken += 1;
+                let j = sampler.next_2d();
+                let (dir, hit) = match centre_hit {
+                    Some(hit) => (centre, hit),
+                    None => {
+                        let dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
+                        t.rays += 1;
+                        (dir, scene.intersect(cam.position, dir, 0.0))
                     }
+                };
+                let p = sample_from(scene, hit, -dir, integrand, bounces, &mut sampler);
+                t.rays += p.rays as u64;
+                if p.radiance.is_finite() {
+                    for c in 0..3 {
+                        px.sum[c] += p.radiance[c] as f64;
+                    }
+                    px.n += 1;
+                } else {
+                    t.dropped += 1;
                 }
-                t
-            })
-            .collect();
-        if stop.is_cancelled() {
-            return Err(RenderError::Cancelled);
-        }
-        Ok(Tally::total(&tallies))
+            }
+        })
     }
 
     pub fn mean_image(&self) -> Vec<[f32; 3]> {

@@ -12,7 +12,7 @@ use super::levels::pyramid;
 use super::options::Visibility;
 use super::sample::{sample_terms, shade, LookupStream, MAX_LOOKUPS};
 use crate::methods::uniform::Uniform;
-use crate::pipeline::film::Tally;
+use crate::pipeline::film::{trace_bands, Tally};
 use crate::pipeline::frame::{Frame, FrameStats, ShadingMaps};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
 use crate::pipeline::strategy::{PassContext, PassOutput, Strategy};
@@ -20,11 +20,8 @@ use crate::render::geometry::NONE;
 use crate::render::integrator::sample_from;
 use crate::render::sampler::{hash_words, PixelSampler};
 use glam::Vec3;
-use rayon::prelude::*;
 use std::time::Instant;
 
-/// Rows per unit of parallel work.
-const BAND_ROWS: usize = 4;
 /// Seed of the shading lookups' stream.
 const STREAM: u64 = 0x7368_6164_6521;
 
@@ -185,82 +182,62 @@ impl BandwidthShading {
         let shade_seed = hash_words(&[seed, STREAM]);
         let env = scene.environment();
         let gbuffer = ctx.gbuffer.map(|g| g.as_ref());
-        let tallies: Vec<Tally> = self
-            .pixels
-            .par_chunks_mut(w * BAND_ROWS)
-            .enumerate()
-            .map(|(band, rows)| {
-                let mut t = Tally { complete: true, ..Tally::default() };
-                for (r, row) in rows.chunks_mut(w).enumerate() {
-                    let y = band * BAND_ROWS + r;
-                    for (x, px) in row.iter_mut().enumerate() {
-                        if ctx.stop.should_stop() {
-                            t.complete = false;
-                            return t;
-                        }
-                        let i = y * w + x;
-                        let centre_object = gbuffer.map_or(NONE, |g| g.pixels[i].object);
-                        for _ in 0..plan[i].samples {
-                            let index = px.taken;
-                            px.taken += 1;
-                            let mut sampler = PixelSampler::new(seed, i as u32, index);
-                            let j = sampler.next_2d();
-                            let (fx, fy) = if job.pixel_centers { (0.5, 0.5) } else { (j[0], j[1]) };
-                            let dir = cam.direction(x as f32 + fx, y as f32 + fy);
-                            let hit = scene.intersect(cam.position, dir, 0.0);
-                            t.rays += 1;
-                            let (Some(env), true) = (env, shades) else {
-                                let p = sample_from(scene, hit, -dir, job.integrand, job.bounces, &mut sampler);
-                                t.rays += p.rays as u64;
-                                if p.radiance.is_finite() {
-                                    add(&mut px.whole, p.radiance);
-                                    px.n_whole += 1;
-                                } else {
-                                    t.dropped += 1;
-                                }
-                                continue;
-                            };
-                            let terms = sample_terms(scene, env, hit.as_ref(), -dir, job.bounces, &mut sampler);
-                            t.rays += terms.rays as u64;
-                            let same = hit.as_ref().map_or(NONE, |s| s.object) == centre_object;
-                            let shaded_value = match (&hit, same && plan[i].lookups > 0) {
-                                (Some(s), true) => {
-                                    let stream = LookupStream { seed: shade_seed, pixel: i as u32, index };
-                                    Some(shade(scene, env, s, -dir, plan[i].lookups, stream))
-                                }
-                                _ => None,
-                            };
-                            let finite = terms.rest.is_finite()
-                                && terms.shadowed.is_finite()
-                                && terms.unshadowed.is_finite()
-                                && shaded_value.is_none_or(|v| v.is_finite());
-                            if !finite {
-                                t.dropped += 1;
-                                continue;
-                            }
-                            if !same {
-                                add(&mut px.whole, terms.rest + terms.shadowed);
-                                px.n_whole += 1;
-                                continue;
-                            }
-                            add(&mut px.rest, terms.rest);
-                            add(&mut px.shadowed, terms.shadowed);
-                            add(&mut px.unshadowed, terms.unshadowed);
-                            px.n_same += 1;
-                            if let Some(s) = shaded_value {
-                                add(&mut px.shaded, s);
-                                px.n_shaded += 1;
-                            }
-                        }
+        trace_bands(&mut self.pixels, w, ctx.stop, |x, y, px, t| {
+            let i = y * w + x;
+            let centre_object = gbuffer.map_or(NONE, |g| g.pixels[i].object);
+            for _ in 0..plan[i].samples {
+                let index = px.taken;
+                px.taken += 1;
+                let mut sampler = PixelSampler::new(seed, i as u32, index);
+                let j = sampler.next_2d();
+                let (fx, fy) = if job.pixel_centers { (0.5, 0.5) } else { (j[0], j[1]) };
+                let dir = cam.direction(x as f32 + fx, y as f32 + fy);
+                let hit = scene.intersect(cam.position, dir, 0.0);
+                t.rays += 1;
+                let (Some(env), true) = (env, shades) else {
+                    let p = sample_from(scene, hit, -dir, job.integrand, job.bounces, &mut sampler);
+                    t.rays += p.rays as u64;
+                    if p.radiance.is_finite() {
+                        add(&mut px.whole, p.radiance);
+                        px.n_whole += 1;
+                    } else {
+                        t.dropped += 1;
                     }
+                    continue;
+                };
+                let terms = sample_terms(scene, env, hit.as_ref(), -dir, job.bounces, &mut sampler);
+                t.rays += terms.rays as u64;
+                let same = hit.as_ref().map_or(NONE, |s| s.object) == centre_object;
+                let shaded_value = match (&hit, same && plan[i].lookups > 0) {
+                    (Some(s), true) => {
+                        let stream = LookupStream { seed: shade_seed, pixel: i as u32, index };
+                        Some(shade(scene, env, s, -dir, plan[i].lookups, stream))
+                    }
+                    _ => None,
+                };
+                let finite = terms.rest.is_finite()
+                    && terms.shadowed.is_finite()
+                    && terms.unshadowed.is_finite()
+                    && shaded_value.is_none_or(|v| v.is_finite());
+                if !finite {
+                    t.dropped += 1;
+                    continue;
                 }
-                t
-            })
-            .collect();
-        if ctx.stop.is_cancelled() {
-            return Err(RenderError::Cancelled);
-        }
-        Ok(Tally::total(&tallies))
+                if !same {
+                    add(&mut px.whole, terms.rest + terms.shadowed);
+                    px.n_whole += 1;
+                    continue;
+                }
+                add(&mut px.rest, terms.rest);
+                add(&mut px.shadowed, terms.shadowed);
+                add(&mut px.unshadowed, terms.unshadowed);
+                px.n_same += 1;
+                if let Some(s) = shaded_value {
+                    add(&mut px.shaded, s);
+                    px.n_shaded += 1;
+                }
+            }
+        })
     }
 
     /// Every pixel's estimate: `S_hat` from its own shading or its parents', plus its samples.
