@@ -141,20 +141,71 @@ pub enum RenderError {
 pub struct StopCheck {
     pub cancel: CancelToken,
     pub deadline: Option<Instant>,
+    /// Tests only: a deadline counted in stop checks rather than in time, so that a test can
+    /// cut a pass part-way whatever the machine's load (see `tests::cut_pass_after_checks`).
+    #[cfg(test)]
+    checks_left: Option<Arc<std::sync::atomic::AtomicI64>>,
 }
 
 impl StopCheck {
     /// A check that only a cancellation trips: for the first pass, which always completes.
     pub fn cancel_only(cancel: &CancelToken) -> StopCheck {
-        StopCheck { cancel: cancel.clone(), deadline: None }
+        StopCheck::new(cancel, None)
+    }
+
+    pub fn new(cancel: &CancelToken, deadline: Option<Instant>) -> StopCheck {
+        StopCheck {
+            cancel: cancel.clone(),
+            deadline,
+            #[cfg(test)]
+            checks_left: None,
+        }
+    }
+
+    /// The check for `pass` of a render: pass 0 always completes, later ones stop at the
+    /// deadline.
+    pub fn for_pass(cancel: &CancelToken, pass: u32, deadline: Option<Instant>) -> StopCheck {
+        #[allow(unused_mut)]
+        let mut stop = StopCheck::new(cancel, if pass == 0 { None } else { deadline });
+        #[cfg(test)]
+        if let Some((_, checks)) = tests::CUT.with(|c| c.get()).filter(|&(cut, _)| cut == pass && pass > 0) {
+            stop.checks_left = Some(Arc::new(std::sync::atomic::AtomicI64::new(checks)));
+        }
+        stop
     }
 
     #[inline]
     pub fn should_stop(&self) -> bool {
+        #[cfg(test)]
+        if let Some(left) = &self.checks_left {
+            if left.fetch_sub(1, Ordering::Relaxed) <= 0 {
+                return true;
+            }
+        }
         self.cancel.is_cancelled() || self.deadline.is_some_and(|d| Instant::now() >= d)
     }
 
     pub fn is_cancelled(&self) -> bool {
         self.cancel.is_cancelled()
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use std::cell::Cell;
+
+    thread_local! {
+        /// The pass to cut and the number of stop checks it passes first, for renders started
+        /// on this thread.
+        pub(super) static CUT: Cell<Option<(u32, i64)>> = const { Cell::new(None) };
+    }
+
+    /// Runs `f` with every render it starts on this thread cutting `pass` after `checks` stop
+    /// checks, as a deadline would, but at the same point of the work on any machine.
+    pub(crate) fn cut_pass_after_checks<T>(pass: u32, checks: i64, f: impl FnOnce() -> T) -> T {
+        CUT.with(|c| c.set(Some((pass, checks))));
+        let out = f();
+        CUT.with(|c| c.set(None));
+        out
     }
 }

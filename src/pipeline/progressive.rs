@@ -45,8 +45,7 @@ pub fn render(
         if cancel.is_cancelled() {
             return Err(RenderError::Cancelled);
         }
-        let stop =
-            if pass == 0 { StopCheck::cancel_only(cancel) } else { StopCheck { cancel: cancel.clone(), deadline } };
+        let stop = StopCheck::for_pass(cancel, pass, deadline);
         let ctx = PassContext { scene: &job.scene, job, view: &job.view, pass, stop: &stop, gbuffer: gbuffer.as_ref() };
         let PassOutput { mut frame, complete } = strategy.run_pass(&ctx)?;
         let elapsed = start.elapsed();

@@ -190,7 +190,7 @@ fn each_light_has_its_own_counts_and_they_add_up() {
     let j = job(shadow_scene(24, 18, 1.0, EmissionProfile::Gaussian, 2, 0.6), Method::Aaf, 3, 2);
     let mut st = ShadowStrategy::new(&j, FilterMode::Aaf);
     assert_eq!(st.lights.len(), 2);
-    let stop = StopCheck { cancel: CancelToken::new(), deadline: None };
+    let stop = StopCheck::cancel_only(&CancelToken::new());
     let g = Arc::new(GBuffer::build(&j.scene, &j.view));
     let mut last = None;
     for pass in 0..4 {
@@ -425,7 +425,7 @@ fn jittered_samples_compute_r_only_up_to_the_antialiasing_count() {
         let mut j = job(scene.clone(), Method::Aaf, 3, 2);
         j.pixel_centers = centres;
         let mut st = ShadowStrategy::new(&j, FilterMode::Aaf);
-        let stop = StopCheck { cancel: CancelToken::new(), deadline: None };
+        let stop = StopCheck::cancel_only(&CancelToken::new());
         let g = Arc::new(GBuffer::build(&j.scene, &j.view));
         for pass in 0..4 {
             st.run_pass(&PassContext { scene: &j.scene, job: &j, view: &j.view, pass, stop: &stop, gbuffer: Some(&g) })
@@ -455,7 +455,7 @@ fn the_fill_averages_the_occluded_pixels_within_its_radius() {
     let scene = shadow_scene(40, 70, 1.0, EmissionProfile::Gaussian, 2, 0.6);
     let j = job(scene, Method::Aaf, 1, 5);
     let mut st = ShadowStrategy::new(&j, FilterMode::Aaf);
-    let stop = StopCheck { cancel: CancelToken::new(), deadline: None };
+    let stop = StopCheck::cancel_only(&CancelToken::new());
     let g = Arc::new(GBuffer::build(&j.scene, &j.view));
     for pass in 0..2 {
         st.run_pass(&PassContext { scene: &j.scene, job: &j, view: &j.view, pass, stop: &stop, gbuffer: Some(&g) })

@@ -207,6 +207,7 @@ fn non_finite_samples_are_counted_and_dropped() {
 }
 
 use crate::methods::tests::builtin;
+use crate::pipeline::job::tests::cut_pass_after_checks;
 
 fn image_mean(f: &Frame) -> f64 {
     f.color.iter().flatten().map(|&v| v as f64).sum::<f64>() / (3 * f.color.len()) as f64
@@ -237,28 +238,21 @@ fn frames_cut_by_the_budget_are_complete_for_every_method() {
             assert!(f[0].stats.pass_complete && f[0].spp.iter().all(|&s| s >= 1.0), "{name} {method:?}");
             let m = image_mean(&f[0]);
             assert!((m / reference - 1.0).abs() < 0.03, "{name} {method:?} pass 0: mean {m} vs {reference}");
-            // Inside a later pass: half-way through the pass after the first two, timed on
-            // an uncut run; retried at other fractions should the machine's speed move the cut
-            // onto a pass boundary or past the tracing into the filter (the early fractions
-            // for methods whose filter is most of a pass).
-            j.halt = Halt::passes(3);
-            let mut times = Vec::new();
-            let start = std::time::Instant::now();
-            render(&j, &CancelToken::new(), &mut |_| {
-                times.push(start.elapsed());
-                true
-            })
-            .unwrap();
+            // Inside a later pass: pass 2 cut after a third of its pixels' stop checks, as a
+            // deadline would cut it (counted, so that the cut lands inside the pass on any
+            // machine under any load); retried earlier for methods whose pass checks less often.
+            let pixels = (j.width() * j.height()) as i64;
             let mut cut = false;
-            for fraction in [0.5, 0.3, 0.7, 0.15, 0.05] {
-                j.halt = Halt::passes(64);
-                j.halt.time_budget = Some(times[1] + (times[2] - times[1]).mul_f64(fraction));
-                let last = frames(&j).pop().unwrap();
-                assert_eq!(last.stats.halt_reason, HaltReason::TimeBudget, "{name} {method:?}");
-                assert!(last.spp.iter().all(|&s| s >= 1.0), "{name} {method:?}: a pixel without samples");
-                let m = image_mean(&last);
+            for checks in [pixels / 3, pixels / 10, 16] {
+                j.halt = Halt::passes(4);
+                let f = cut_pass_after_checks(2, checks, || frames(&j));
+                let cut_frame = &f[2];
+                assert!(cut_frame.spp.iter().all(|&s| s >= 1.0), "{name} {method:?}: a pixel without samples");
+                let m = image_mean(cut_frame);
                 assert!((m / reference - 1.0).abs() < 0.03, "{name} {method:?} cut: mean {m} vs {reference}");
-                if !last.stats.pass_complete {
+                if !cut_frame.stats.pass_complete {
+                    assert_eq!(f.len(), 3, "{name} {method:?}: the cut frame is the last");
+                    assert_eq!(cut_frame.stats.halt_reason, HaltReason::TimeBudget, "{name} {method:?}");
                     cut = true;
                     break;
                 }
