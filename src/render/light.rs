@@ -327,11 +327,11 @@ impl RectLight {
                     self.corner + self.edge_u + self.edge_v,
                     self.corner + self.edge_v,
                 ];
-                let clipped = clip_above(x, ng, &clip_above(x, n, &quad));
-                if clipped.len() < 3 {
+                let clipped = clip_above_both(x, n, ng, &quad);
+                if clipped.len < 3 {
                     0.0
                 } else {
-                    polygon_irradiance(x, n, &clipped)
+                    polygon_irradiance(x, n, clipped.as_slice())
                 }
             }
             EmissionProfile::Gaussian => {
@@ -379,7 +379,7 @@ impl RectLight {
     /// triangles and integrate each with a 4 x 4 Gauss-Legendre rule through the Duffy map (no
     /// kink inside any triangle), splitting triangles that are large seen from `x`.
     fn adaptive_gaussian_irradiance(&self, x: Vec3, n: Vec3, ng: Vec3) -> f64 {
-        let poly = clip_above(x, ng, &clip_above(x, n, &self.quad()));
+        let poly = clip_above_both(x, n, ng, &self.quad());
         let (xd, nd, nl) = (x.as_dvec3(), n.as_dvec3(), self.normal.as_dvec3());
         let (centre, s2) = (self.center().as_dvec3(), 2.0 * (self.sigma() as f64).powi(2));
         let f = |y: glam::DVec3| {
@@ -387,7 +387,7 @@ impl RectLight {
             let r2 = d.length_squared();
             (-(y - centre).length_squared() / s2).exp() * nd.dot(d).max(0.0) * (-nl.dot(d)).max(0.0) / (r2 * r2)
         };
-        let p: Vec<glam::DVec3> = poly.iter().map(|v| v.as_dvec3()).collect();
+        let p: Vec<glam::DVec3> = poly.as_slice().iter().map(|v| v.as_dvec3()).collect();
         // Triangles wider than 3 sigma are split as well, so a narrow profile is resolved.
         let resolve = 3.0 * self.sigma as f64;
         (1..p.len().saturating_sub(1)).map(|i| triangle_integral(p[0], p[i], p[i + 1], xd, resolve, &f, 0)).sum()
@@ -567,22 +567,59 @@ fn triangle_integral(
     sum * area2
 }
 
-/// The part of polygon `poly` above the plane through `x` with normal `n` (Sutherland-Hodgman).
-fn clip_above(x: Vec3, n: Vec3, poly: &[Vec3]) -> Vec<Vec3> {
-    let h = |p: Vec3| n.as_dvec3().dot((p - x).as_dvec3());
-    let mut out = Vec::with_capacity(poly.len() + 1);
-    for i in 0..poly.len() {
-        let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
-        let (ha, hb) = (h(a), h(b));
-        if ha > 0.0 {
-            out.push(a);
-        }
-        if (ha > 0.0) != (hb > 0.0) && ha != hb {
-            let t = (ha / (ha - hb)) as f32;
-            out.push(a + (b - a) * t);
-        }
+/// A convex polygon of at most `MAX_CLIPPED` vertices, kept on the stack: the light's quad
+/// clipped by two planes (each clip adds at most one vertex). It is built once per sample
+/// (the unshadowed irradiance behind AAF's shadow filter), so it must not allocate.
+#[derive(Clone, Copy)]
+struct ClippedPolygon {
+    vertices: [Vec3; MAX_CLIPPED],
+    len: usize,
+}
+
+const MAX_CLIPPED: usize = 8;
+
+impl ClippedPolygon {
+    fn new(poly: &[Vec3]) -> Self {
+        let mut out = ClippedPolygon { vertices: [Vec3::ZERO; MAX_CLIPPED], len: poly.len() };
+        out.vertices[..poly.len()].copy_from_slice(poly);
+        out
     }
-    out
+
+    fn as_slice(&self) -> &[Vec3] {
+        &self.vertices[..self.len]
+    }
+
+    /// The part above the plane through `x` with normal `n` (Sutherland-Hodgman).
+    fn clip_above(&self, x: Vec3, n: Vec3) -> Self {
+        let poly = self.as_slice();
+        let h = |p: Vec3| n.as_dvec3().dot((p - x).as_dvec3());
+        let mut out = ClippedPolygon { vertices: [Vec3::ZERO; MAX_CLIPPED], len: 0 };
+        let mut push = |v: Vec3| {
+            // A convex polygon crosses a plane at most twice, so at most one vertex is added;
+            // the guard only keeps a degenerate input from writing out of bounds.
+            if out.len < MAX_CLIPPED {
+                out.vertices[out.len] = v;
+                out.len += 1;
+            }
+        };
+        for i in 0..poly.len() {
+            let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+            let (ha, hb) = (h(a), h(b));
+            if ha > 0.0 {
+                push(a);
+            }
+            if (ha > 0.0) != (hb > 0.0) && ha != hb {
+                let t = (ha / (ha - hb)) as f32;
+                push(a + (b - a) * t);
+            }
+        }
+        out
+    }
+}
+
+/// The part of polygon `poly` above the planes through `x` with normals `n` and `ng`.
+fn clip_above_both(x: Vec3, n: Vec3, ng: Vec3, poly: &[Vec3; 4]) -> ClippedPolygon {
+    ClippedPolygon::new(poly).clip_above(x, n).clip_above(x, ng)
 }
 
 impl PointLight {
@@ -1009,5 +1046,33 @@ mod tests {
         let s = p.sample(Vec3::ZERO).unwrap();
         assert_eq!(s.weight, Vec3::splat(2.0));
         assert_eq!(s.dist, 2.0);
+    }
+
+    /// Shoelace area of a polygon in the z = 0 plane.
+    fn area_xy(p: &[Vec3]) -> f32 {
+        (0..p.len()).map(|i| p[i].x * p[(i + 1) % p.len()].y - p[(i + 1) % p.len()].x * p[i].y).sum::<f32>() / 2.0
+    }
+
+    #[test]
+    fn clipping_the_quad_by_two_planes_keeps_the_part_above_both() {
+        let quad =
+            [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
+        let x = Vec3::new(0.5, 0.5, 0.0);
+        // Above both planes: the whole quad, unchanged.
+        let all = clip_above_both(Vec3::new(-1.0, -1.0, 0.0), Vec3::X, Vec3::Y, &quad);
+        assert_eq!(all.as_slice(), quad.as_slice());
+        // x > 0.5 and y > 0.5: the top-right quarter.
+        let quarter = clip_above_both(x, Vec3::X, Vec3::Y, &quad);
+        assert!((area_xy(quarter.as_slice()) - 0.25).abs() < 1e-6);
+        // Two diagonal cuts cut off two corners: six vertices, area 1 - 2 * (1/8).
+        let (a, b) = (Vec3::new(1.0, 1.0, 0.0).normalize(), Vec3::new(-1.0, -1.0, 0.0).normalize());
+        let hexagon = clip_above_both(Vec3::new(0.5, 0.0, 0.0), a, Vec3::ZERO, &quad);
+        assert_eq!(hexagon.len, 0, "a zero normal keeps nothing");
+        let hexagon =
+            ClippedPolygon::new(&quad).clip_above(Vec3::new(0.5, 0.0, 0.0), a).clip_above(Vec3::new(1.0, 0.5, 0.0), b);
+        assert_eq!(hexagon.len, 6);
+        assert!((area_xy(hexagon.as_slice()) - 0.75).abs() < 1e-6, "{}", area_xy(hexagon.as_slice()));
+        // Below a plane: nothing.
+        assert_eq!(clip_above_both(Vec3::new(2.0, 0.0, 0.0), Vec3::X, Vec3::Y, &quad).len, 0);
     }
 }
