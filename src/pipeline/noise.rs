@@ -9,6 +9,15 @@
 //! halves per pass, D equals the newer frame's bias). A pixel that got no new samples counts
 //! with D^2 alone.
 //!
+//! A bias that shrinks more slowly than that is seen only in part (a filter narrowing by
+//! 4^(-1/6) per pass, as `auto`'s does, shows D = 0.59 of the newer bias), so a filtered frame
+//! that carries its unfiltered mean U also measures its bias directly: with F the filtered
+//! frame, E[(F - U)^2] = E[(F - truth)^2] + Var U - 2 Cov(F, U), where Var U comes from the
+//! unfiltered frames' difference as above and the covariance (the pixel's own samples' share
+//! of its filtered value) is at least 0. So mean((F - U)^2) - mean(Var U) is at most F's squared
+//! error, and close to it where the bias dominates, which is where the difference falls short;
+//! the estimate is the larger of the two.
+//!
 //! The relative RMSE is sqrt(mean over pixels and channels of the squared error) divided by the
 //! mean over pixels and channels of the newer frame: one number for the image, stable where
 //! the image is dark (unlike a per-pixel relative error). `wedge bench noise` checks it against
@@ -20,9 +29,11 @@ use super::frame::Frame;
 /// bias, which stays.
 pub const NARROWING: f64 = 0.8;
 
-/// What the estimate keeps of a frame: its colour, spp map and mean filter width.
+/// What the estimate keeps of a frame: its colour, unfiltered mean, spp map and mean filter
+/// width.
 struct Kept {
     color: Vec<[f32; 3]>,
+    unfiltered: Option<Vec<[f32; 3]>>,
     spp: Vec<f32>,
     width: Option<f64>,
 }
@@ -45,9 +56,16 @@ impl ErrorEstimate {
                 (Some(before), Some(now)) => now <= NARROWING * before,
                 _ => true,
             };
-            relative_error(&k.color, &k.spp, frame).filter(|&e| narrowed || e == 0.0)
+            let change = relative_error(&k.color, &k.spp, frame).filter(|&e| narrowed || e == 0.0)?;
+            let bias = k.unfiltered.as_deref().and_then(|u| relative_bias(u, &k.spp, frame));
+            Some(change.max(bias.unwrap_or(0.0)))
         });
-        self.previous = Some(Kept { color: frame.color.clone(), spp: frame.spp.clone(), width });
+        self.previous = Some(Kept {
+            color: frame.color.clone(),
+            unfiltered: frame.unfiltered.clone(),
+            spp: frame.spp.clone(),
+            width,
+        });
         estimate
     }
 }
@@ -68,7 +86,7 @@ pub fn relative_error(color: &[[f32; 3]], spp: &[f32], next: &Frame) -> Option<f
     let (mut sq, mut sum) = (0.0f64, 0.0f64);
     for (p, (a, b)) in color.iter().zip(&next.color).enumerate() {
         let (n0, n1) = (spp.get(p).copied().unwrap_or(0.0) as f64, next.spp.get(p).copied().unwrap_or(0.0) as f64);
-        let weight = if n1 > n0 && n0 > 0.0 { n0 / (n1 - n0) } else { 1.0 };
+        let weight = variance_weight(n0, n1);
         for c in 0..3 {
             let d = (a[c] - b[c]) as f64;
             sq += d * d * weight;
@@ -82,6 +100,41 @@ pub fn relative_error(color: &[[f32; 3]], spp: &[f32], next: &Frame) -> Option<f
         // Nothing changed (a black image, or no new samples): no error left to see.
         return Some(0.0);
     }
+    (mean > 0.0 && rmse.is_finite()).then(|| rmse / mean)
+}
+
+/// The weight that turns a pixel's squared change between frames of n0 and n1 samples into the
+/// variance of the newer one: n0 / (n1 - n0), or 1 where it got no new samples.
+fn variance_weight(n0: f64, n1: f64) -> f64 {
+    if n1 > n0 && n0 > 0.0 {
+        n0 / (n1 - n0)
+    } else {
+        1.0
+    }
+}
+
+/// A lower bound on the relative RMSE of the filtered frame `next` from its distance to its own
+/// unfiltered mean, less that mean's variance (seen in its change since the previous frame's
+/// unfiltered mean `unfiltered`, of `spp` samples); None when `next` has no unfiltered mean, or
+/// its mean is not positive.
+fn relative_bias(unfiltered: &[[f32; 3]], spp: &[f32], next: &Frame) -> Option<f64> {
+    let u1 = next.unfiltered.as_deref()?;
+    if unfiltered.len() != u1.len() || u1.len() != next.color.len() || u1.is_empty() {
+        return None;
+    }
+    let (mut sq, mut sum) = (0.0f64, 0.0f64);
+    for (p, ((u0, u1), f)) in unfiltered.iter().zip(u1).zip(&next.color).enumerate() {
+        let (n0, n1) = (spp.get(p).copied().unwrap_or(0.0) as f64, next.spp.get(p).copied().unwrap_or(0.0) as f64);
+        let weight = variance_weight(n0, n1);
+        for c in 0..3 {
+            let (d, e) = ((f[c] - u1[c]) as f64, (u0[c] - u1[c]) as f64);
+            sq += d * d - e * e * weight;
+            sum += f[c] as f64;
+        }
+    }
+    let values = (u1.len() * 3) as f64;
+    let mean = sum / values;
+    let rmse = (sq.max(0.0) / values).sqrt();
     (mean > 0.0 && rmse.is_finite()).then(|| rmse / mean)
 }
 
@@ -181,5 +234,48 @@ mod tests {
         let grey = Frame { color: vec![[0.5; 3]; 2], ..black.clone() };
         est.update(&grey);
         assert_eq!(est.update(&Frame { spp: vec![2.0; 2], ..black }), None);
+    }
+
+    /// A filter whose bias shrinks by 4^(-1/3) per pass (its width by 4^(-1/6), `auto`'s
+    /// narrowing) over fourfold samples: the frame difference sees a third of the bias, which
+    /// dominates; the distance to the unfiltered mean sees all of it. The estimate must match
+    /// the true error, where the difference alone falls short by more than 2x.
+    #[test]
+    fn a_slowly_shrinking_bias_is_measured_against_the_unfiltered_mean() {
+        let counts = [16u32, 64, 256, 1024];
+        let (raw, _) = nested_frames(&counts, 0.3, 11);
+        let (w, h) = (raw[0].width as usize, raw[0].height as usize);
+        let truth: Vec<f64> = (0..w * h).map(|p| 0.2 + 0.6 * (p % w) as f64 / w as f64).collect();
+        let mut est = ErrorEstimate::default();
+        let mut change_only = ErrorEstimate::default();
+        for (k, frame) in raw.iter().enumerate() {
+            let shrink = 4f64.powf(-(k as f64) / 3.0);
+            // A smooth bias, and a tenth of the pixel's own noise (its share of the filter).
+            let filtered: Vec<[f32; 3]> = (0..w * h)
+                .map(|p| {
+                    let bias = 0.05 * shrink * (1.0 + ((p / w) as f64 / h as f64));
+                    let noise = frame.color[p][0] as f64 - truth[p];
+                    [(truth[p] + bias + 0.1 * noise) as f32; 3]
+                })
+                .collect();
+            let sq: f64 = filtered.iter().zip(&truth).map(|(c, t)| (c[0] as f64 - t).powi(2)).sum();
+            let mean = filtered.iter().map(|c| c[0] as f64).sum::<f64>() / truth.len() as f64;
+            let true_error = (sq / truth.len() as f64).sqrt() / mean;
+            let width = Some(vec![4.0 * 4f32.powf(-(k as f32) / 6.0); w * h]);
+            let f = Frame {
+                color: filtered.clone(),
+                unfiltered: Some(frame.color.clone()),
+                filter_width: width.clone(),
+                ..frame.clone()
+            };
+            let plain = Frame { color: filtered, filter_width: width, ..frame.clone() };
+            let (e, e_change) = (est.update(&f), change_only.update(&plain));
+            if k == 0 {
+                continue;
+            }
+            let (e, e_change) = (e.unwrap(), e_change.unwrap());
+            assert!((e / true_error - 1.0).abs() < 0.15, "pass {k}: estimate {e}, true {true_error}");
+            assert!(true_error / e_change > 2.0, "pass {k}: the change alone sees {e_change} of {true_error}");
+        }
     }
 }
