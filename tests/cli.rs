@@ -138,6 +138,20 @@ fn scenes_lists_the_builtins() {
     }
 }
 
+/// The noise bench's time limit: a target no render reaches stops at it and its row says so,
+/// and a limit that is not a positive number of seconds is refused by name.
+#[test]
+fn the_noise_bench_stops_a_render_that_never_reaches_its_target() {
+    let args = ["bench", "noise", "--scenes", "grids", "--width", "16", "--height", "12", "--methods", "uniform"];
+    let quick = [&args[..], &["--reference-spp", "16", "--targets", "0.00001", "--max-seconds", "0.2"]].concat();
+    let o = wedge(&quick);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("| grids | uniform | 0.00001 |") && out.contains("(not halted by the target)"), "{out}");
+    let o = wedge(&[&args[..], &["--max-seconds", "0"]].concat());
+    assert!(!o.status.success() && stderr(&o).contains("--max-seconds"), "{}", stderr(&o));
+}
+
 #[test]
 fn ambient_occlusion_renders_an_open_fraction() {
     let dir = temp_dir("ao");

@@ -68,16 +68,18 @@ pub fn reference(scene: &str, width: u32, height: u32, spp: f64) -> anyhow::Resu
     Ok((frames.swap_remove(0), own))
 }
 
-/// Renders `scene` with `method` to `target` (no other halt) and measures it.
+/// Renders `scene` with `method` to `target` (no other halt but `max_seconds`) and measures it.
 pub fn measure(
     scene: &str,
     (width, height): (u32, u32),
     method: Method,
     target: f64,
+    max_seconds: f64,
     reference: &(Frame, f64),
 ) -> anyhow::Result<NoiseRow> {
     let mut j = job(scene, width, height, method, 7)?;
-    j.halt = Halt { max_passes: 64, max_mean_spp: f64::INFINITY, time_budget: None, target_error: Some(target) };
+    let budget = Some(std::time::Duration::from_secs_f64(max_seconds));
+    j.halt = Halt { max_passes: 64, max_mean_spp: f64::INFINITY, time_budget: budget, target_error: Some(target) };
     let f = final_frame(&j);
     let (ref_frame, ref_error) = reference;
     let mean = image_mean(ref_frame);

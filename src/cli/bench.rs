@@ -141,6 +141,10 @@ pub enum BenchKind {
         /// Samples per pixel of each of the two uniform references.
         #[arg(long, default_value_t = 4096.0)]
         reference_spp: f64,
+        /// Seconds after which a render that has not reached its target stops (its row says
+        /// so): a method whose estimate never falls to the target would otherwise run on.
+        #[arg(long, default_value_t = 60.0)]
+        max_seconds: f64,
     },
     /// Latency from a Render request to its first five frames over gRPC, per method.
     Latency {
@@ -293,7 +297,10 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             Ok(())
         }
         BenchKind::Throughput(args) => throughput(args),
-        BenchKind::Noise { scenes, width, height, targets, methods, reference_spp } => {
+        BenchKind::Noise { scenes, width, height, targets, methods, reference_spp, max_seconds } => {
+            if !(max_seconds > 0.0 && max_seconds.is_finite()) {
+                anyhow::bail!("--max-seconds must be a positive number of seconds, not {max_seconds}");
+            }
             use crate::bench::noise;
             use crate::pipeline::job::Method;
             let methods: Vec<Method> = methods
@@ -309,7 +316,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
                 eprintln!("{scene}: reference's own relative RMSE {:.4}", reference.1);
                 for &m in &methods {
                     for &t in &targets {
-                        let r = noise::measure(scene, (width, height), m, t, &reference)?;
+                        let r = noise::measure(scene, (width, height), m, t, max_seconds, &reference)?;
                         let ratio = r.ratio();
                         total += 1;
                         if (0.5..=2.0).contains(&ratio) {
