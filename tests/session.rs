@@ -241,6 +241,60 @@ async fn a_slow_reader_gets_the_newest_frames_and_skips_the_rest() {
     assert!(full.windows(2).all(|w| w[0].stats.pass < w[1].stats.pass));
 }
 
+/// A burst of camera changes sent while a long render streams its frames: each change is
+/// acknowledged in order, no event of an older generation follows an acknowledgement, the
+/// generations of the frames never go back, no superseded view reaches its final frame (its
+/// render stops, however many of them started), and the last view renders exactly as a fresh
+/// render of it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_burst_of_changes_mid_render_never_goes_back_a_generation() {
+    let server = TestServer::start().await;
+    let mut open = long_render(5);
+    open.frame_every = 0;
+    let mut s = Session::open(&server, open.clone()).await.expect("session opens");
+    // Generation 1 is rendering once its first frame is out.
+    loop {
+        let e = s.next().await.unwrap().unwrap();
+        if matches!(e.kind, Some(Kind::FrameComplete(_))) {
+            break;
+        }
+    }
+    let changes = 8u64;
+    let camera = |i: u64| CameraOverride {
+        position: Some(Vec3 { x: 30.0 * i as f32, y: 300.0, z: -700.0 }),
+        ..Default::default()
+    };
+    // The last change also makes its render short, so that it ends.
+    let short = open_req(2, 5).settings;
+    for i in 1..=changes {
+        let settings = if i == changes { short } else { None };
+        s.update(SessionUpdate { camera: Some(camera(i)), settings, ..Default::default() }).await;
+    }
+    let last_generation = 1 + changes;
+    let (frames, seen) = s.until_final(last_generation).await;
+
+    let acks: Vec<(usize, u64)> = (seen.iter().enumerate())
+        .filter(|(_, e)| matches!(e.kind, Some(Kind::Ack(_))))
+        .map(|(i, e)| (i, e.generation))
+        .collect();
+    assert_eq!(acks.iter().map(|a| a.1).collect::<Vec<_>>(), (2..=last_generation).collect::<Vec<_>>());
+    for &(at, generation) in &acks {
+        assert!(
+            seen[at..].iter().all(|e| e.generation >= generation),
+            "an event older than generation {generation} after its acknowledgement"
+        );
+    }
+    assert!(frames.windows(2).all(|w| w[0].0 <= w[1].0), "frame generations went back");
+    let finals: Vec<u64> = frames.iter().filter(|(_, f)| f.stats.is_final).map(|(g, _)| *g).collect();
+    assert_eq!(finals, [last_generation], "only the last view ends");
+
+    let mut fresh = open;
+    fresh.settings = short;
+    fresh.camera = Some(camera(changes));
+    let expected = collect(&mut server.client().await, fresh).await.expect("render");
+    assert_eq!(color_bits(&frames.last().unwrap().1), color_bits(expected.frames.last().unwrap()));
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn cancelling_a_session_stops_its_render_and_frees_its_slot() {
     let server = TestServer::with_config(ServerConfig { max_concurrent_renders: 1, ..Default::default() }).await;
