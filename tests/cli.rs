@@ -152,6 +152,39 @@ fn the_noise_bench_stops_a_render_that_never_reaches_its_target() {
     assert!(!o.status.success() && stderr(&o).contains("--max-seconds"), "{}", stderr(&o));
 }
 
+/// `wedge bench session` prints one line per method in the form scripts read.
+#[test]
+fn the_session_bench_prints_its_line_per_method() {
+    let o = wedge(&[
+        "bench",
+        "session",
+        "--scene",
+        "cornell",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--method",
+        "uniform",
+        "--updates",
+        "6",
+        "--rate",
+        "30",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let line = out.lines().find(|l| l.starts_with("uniform: ")).unwrap_or_else(|| panic!("no uniform line: {out}"));
+    let words: Vec<&str> = line.split_whitespace().collect();
+    assert_eq!(words.len(), 11, "{line}");
+    let (median, p95): (f64, f64) = (words[2].parse().unwrap(), words[5].parse().unwrap());
+    let (dropped, total): (u64, u64) = (words[8].parse().unwrap(), words[10].parse().unwrap());
+    assert_eq!(
+        [words[1], words[3], words[4], words[6], words[7], words[9]],
+        ["median", "ms,", "p95", "ms,", "dropped", "of"]
+    );
+    assert!(median <= p95 && dropped <= total && total >= 6, "{line}");
+}
+
 #[test]
 fn ambient_occlusion_renders_an_open_fraction() {
     let dir = temp_dir("ao");

@@ -104,9 +104,41 @@ pub async fn measure(
     Ok(SessionReport { latencies, full_latencies, updates, frames, dropped })
 }
 
+impl SessionReport {
+    /// The 95th percentile of the change-to-first-frame times (nearest rank), seconds.
+    pub fn p95(&self) -> f64 {
+        let mut l = self.latencies.clone();
+        l.sort_by(f64::total_cmp);
+        l.get(((l.len() as f64 * 0.95).ceil() as usize).saturating_sub(1)).copied().unwrap_or(f64::NAN)
+    }
+
+    /// The line scripts read: `METHOD: median N ms, p95 M ms, dropped K of T`.
+    pub fn line(&self, method: &str) -> String {
+        format!(
+            "{method}: median {:.0} ms, p95 {:.0} ms, dropped {} of {}",
+            super::median(self.latencies.clone()) * 1e3,
+            self.p95() * 1e3,
+            self.dropped,
+            self.frames + self.dropped
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_report_line_has_the_median_the_nearest_rank_p95_and_the_drops() {
+        let r = SessionReport {
+            latencies: (1..=21).map(|ms| ms as f64 / 1e3).collect(),
+            full_latencies: vec![],
+            updates: 21,
+            frames: 30,
+            dropped: 4,
+        };
+        assert_eq!(r.line("auto"), "auto: median 11 ms, p95 20 ms, dropped 4 of 34");
+    }
 
     #[test]
     fn the_orbit_keeps_the_distance_and_turns_about_up() {

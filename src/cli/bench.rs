@@ -351,23 +351,12 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
                     ..Default::default()
                 };
                 let r = rt.block_on(crate::bench::session::measure(req, camera, updates, rate, sweep, addr.clone()))?;
-                let mut l = r.latencies.clone();
-                l.sort_by(f64::total_cmp);
-                let p95 =
-                    l.get(((l.len() as f64 * 0.95).ceil() as usize).saturating_sub(1)).copied().unwrap_or(f64::NAN);
-                println!(
-                    "{}: median {:.0} ms, p95 {:.0} ms, dropped {} of {}",
-                    m.name(),
-                    median(l.clone()) * 1e3,
-                    p95 * 1e3,
-                    r.dropped,
-                    r.frames + r.dropped
-                );
+                println!("{}", r.line(m.name()));
                 println!(
                     "  {} of {} views got a frame (a 1/4-resolution preview where the image is large) before the next \
                      change; {} got a full-resolution frame, median {:.0} ms ({scene} {width}x{height}, {updates} \
                      changes at {rate} Hz)",
-                    l.len(),
+                    r.latencies.len(),
                     r.updates,
                     r.full_latencies.len(),
                     median(r.full_latencies.clone()) * 1e3
