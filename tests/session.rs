@@ -208,6 +208,36 @@ async fn pause_stops_frames_until_resume() {
     assert!(matches!(e.kind, Some(Kind::Started(_))) && e.generation == 3, "{e:?}");
 }
 
+/// Changes that pile up while nothing renders (here: paused) are coalesced: each is
+/// acknowledged, but only the newest view renders, once, exactly as a fresh render of it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn pending_changes_are_coalesced_into_the_newest() {
+    let server = TestServer::start().await;
+    let mut s = Session::open(&server, open_req(2, 9)).await.expect("session opens");
+    s.until_final(1).await;
+    s.update(SessionUpdate { pause: true, ..Default::default() }).await;
+    let camera = |i: u32| CameraOverride {
+        position: Some(Vec3 { x: -40.0 * i as f32, y: 280.0, z: -700.0 }),
+        ..Default::default()
+    };
+    for i in 1..=4 {
+        s.update(SessionUpdate { camera: Some(camera(i)), ..Default::default() }).await;
+    }
+    s.update(SessionUpdate { resume: true, ..Default::default() }).await;
+    // Generations: 2 the pause, 3-6 the cameras, 7 the resume.
+    let (frames, seen) = s.until_final(7).await;
+    let acked: Vec<u64> = seen.iter().filter(|e| matches!(e.kind, Some(Kind::Ack(_)))).map(|e| e.generation).collect();
+    assert_eq!(acked, (2..=7).collect::<Vec<_>>());
+    let started: Vec<u64> =
+        seen.iter().filter(|e| matches!(e.kind, Some(Kind::Started(_)))).map(|e| e.generation).collect();
+    assert_eq!(started, [7], "only the newest view renders");
+    assert!(frames.iter().all(|(g, _)| *g == 7));
+    let mut fresh = open_req(2, 9);
+    fresh.camera = Some(camera(4));
+    let expected = collect(&mut server.client().await, fresh).await.expect("render");
+    assert_eq!(color_bits(&frames.last().unwrap().1), color_bits(expected.frames.last().unwrap()));
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_slow_reader_gets_the_newest_frames_and_skips_the_rest() {
     let server = TestServer::start().await;
