@@ -283,6 +283,73 @@ fn the_viewer_shows_frames_and_a_drag_moves_the_camera() {
     runtime.block_on(server.stop(Duration::from_secs(10))).unwrap();
 }
 
+/// The rest of the page: every map in the layer menu shows with its legend and the status line
+/// names generation, pass, spp and time; the mouse wheel zooms (a new generation); a scene file
+/// chosen in the file input is uploaded and its session renders.
+#[test]
+fn the_viewer_shows_every_map_zooms_and_opens_an_uploaded_scene() {
+    if !browser_enabled() {
+        eprintln!("skipped: set WEDGE_TEST_BROWSER=1 with chromium and chromium-driver installed");
+        return;
+    }
+    let runtime = tokio::runtime::Runtime::new().unwrap();
+    let server = runtime.block_on(TestServer::with_config(ServerConfig { web: true, ..Default::default() }));
+    let browser = Browser::start();
+    browser.session_call("POST", "/url", Some(&json!({"url": format!("http://{}/?scene=cornell", server.addr)})));
+    let first = browser.wait_for("the first full-resolution frame", 60, |s| s["frames"]["1"].as_u64() >= Some(1));
+
+    // Every map in the menu, with its legend; the colour without one.
+    let maps = browser.script(
+        "const s = document.getElementById('layer'), legend = document.getElementById('legend');
+         const out = [];
+         for (const o of [...s.options]) {
+           s.value = o.value; s.dispatchEvent(new Event('change'));
+           out.push([o.value, !legend.hidden, document.getElementById('status').textContent]);
+         }
+         return out;",
+    );
+    let maps = maps.as_array().unwrap();
+    let names: Vec<&str> = maps.iter().map(|m| m[0].as_str().unwrap()).collect();
+    for wanted in ["color", "spp", "filter_width"] {
+        assert!(names.contains(&wanted), "no {wanted} in the menu: {names:?}");
+    }
+    assert!(names.iter().any(|n| n.contains('.')), "no per-component map in the menu: {names:?} ({first})");
+    for m in maps {
+        let (name, legend, status) = (m[0].as_str().unwrap(), m[1].as_bool().unwrap(), m[2].as_str().unwrap());
+        assert_eq!(legend, name != "color", "{name}: legend shown {legend}");
+        let words: Vec<&str> = status.split(" · ").collect();
+        assert!(words[0].starts_with("generation "), "{name}: status {status:?}");
+        assert!(words.iter().any(|w| w.starts_with("pass ")), "{name}: status {status:?}");
+        assert!(words.iter().any(|w| w.ends_with(" spp")) && words.iter().any(|w| w.ends_with(" s")), "{status:?}");
+    }
+
+    // The wheel zooms: a new generation renders.
+    browser.script(
+        "document.getElementById('view').dispatchEvent(new WheelEvent('wheel', {deltaY: 120, bubbles: true, cancelable: true}));
+         return null;",
+    );
+    browser.wait_for("a frame of the zoomed view", 60, |s| later_frames(s) >= 1);
+
+    // A scene file chosen in the page: uploaded, selected by its digest, rendered.
+    let scene = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.json")).unwrap();
+    let session = browser.viewer()["session_id"].clone();
+    browser.session_call(
+        "POST",
+        "/execute/sync",
+        Some(&json!({"script": "const input = document.getElementById('file'), t = new DataTransfer();
+             t.items.add(new File([arguments[0]], 'box.json', {type: 'application/json'}));
+             input.files = t.files; input.dispatchEvent(new Event('change')); return null;", "args": [scene]})),
+    );
+    let uploaded = browser.wait_for("a frame of the uploaded scene's session", 60, |s| {
+        s["session_id"] != session && s["frames"]["1"].as_u64() >= Some(1)
+    });
+    assert_eq!(uploaded["errors"], json!([]), "{uploaded}");
+    let chosen = browser.script("return document.getElementById('scene').value;");
+    assert!(chosen.as_str().is_some_and(|v| v.starts_with("sha256:")), "{chosen}");
+    drop(browser);
+    runtime.block_on(server.stop(Duration::from_secs(10))).unwrap();
+}
+
 /// Sends `request` and reads the reply until the server closes the connection.
 fn exchange(addr: std::net::SocketAddr, request: &[u8]) -> Vec<u8> {
     let mut s = TcpStream::connect(addr).unwrap();
