@@ -205,18 +205,24 @@ async fn native_frame(server: &TestServer, pass: u64) -> wedge::pipeline::frame:
     panic!("the native render ended before pass {pass}");
 }
 
-#[test]
-fn the_viewer_shows_frames_and_a_drag_moves_the_camera() {
+/// A server with the web viewer on, and a browser showing it on `cornell` with its first
+/// full-resolution frame; None (the test skipped) unless WEDGE_TEST_BROWSER=1.
+fn open_viewer() -> Option<(tokio::runtime::Runtime, TestServer, Browser, Value)> {
     if !browser_enabled() {
         eprintln!("skipped: set WEDGE_TEST_BROWSER=1 with chromium and chromium-driver installed");
-        return;
+        return None;
     }
     let runtime = tokio::runtime::Runtime::new().unwrap();
     let server = runtime.block_on(TestServer::with_config(ServerConfig { web: true, ..Default::default() }));
     let browser = Browser::start();
     browser.session_call("POST", "/url", Some(&json!({"url": format!("http://{}/?scene=cornell", server.addr)})));
-
     let first = browser.wait_for("the first full-resolution frame", 60, |s| s["frames"]["1"].as_u64() >= Some(1));
+    Some((runtime, server, browser, first))
+}
+
+#[test]
+fn the_viewer_shows_frames_and_a_drag_moves_the_camera() {
+    let Some((runtime, server, browser, first)) = open_viewer() else { return };
     assert!(first["session_id"].as_str().is_some_and(|id| id.len() == 32), "{first}");
     assert_eq!(first["shown"]["width"], json!(320), "{first}");
     for layer in ["color", "spp", "filter_width"] {
@@ -288,15 +294,7 @@ fn the_viewer_shows_frames_and_a_drag_moves_the_camera() {
 /// chosen in the file input is uploaded and its session renders.
 #[test]
 fn the_viewer_shows_every_map_zooms_and_opens_an_uploaded_scene() {
-    if !browser_enabled() {
-        eprintln!("skipped: set WEDGE_TEST_BROWSER=1 with chromium and chromium-driver installed");
-        return;
-    }
-    let runtime = tokio::runtime::Runtime::new().unwrap();
-    let server = runtime.block_on(TestServer::with_config(ServerConfig { web: true, ..Default::default() }));
-    let browser = Browser::start();
-    browser.session_call("POST", "/url", Some(&json!({"url": format!("http://{}/?scene=cornell", server.addr)})));
-    let first = browser.wait_for("the first full-resolution frame", 60, |s| s["frames"]["1"].as_u64() >= Some(1));
+    let Some((runtime, server, browser, first)) = open_viewer() else { return };
 
     // Every map in the menu, with its legend; the colour without one.
     let maps = browser.script(
