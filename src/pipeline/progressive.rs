@@ -28,7 +28,13 @@ pub fn render(
     let start = Instant::now();
     let halt = &job.halt;
     let deadline = halt.time_budget.map(|b| start + b);
-    let gbuffer = job.method.spec().needs_gbuffer.then(|| Arc::new(GBuffer::build(&job.scene, &job.view)));
+    // Built before pass 0, and given up within a row of work if the render is cancelled.
+    let gbuffer = if job.method.spec().needs_gbuffer {
+        let g = GBuffer::build_until(&job.scene, &job.view, &|| cancel.is_cancelled());
+        Some(Arc::new(g.ok_or(RenderError::Cancelled)?))
+    } else {
+        None
+    };
     let gbuffer_rays = gbuffer.as_ref().map_or(0, |g| g.pixels.len() as u64);
     if gbuffer.is_some() {
         tracing::debug!(seconds = start.elapsed().as_secs_f64(), "G-buffer built");

@@ -63,9 +63,20 @@ pub struct GBuffer {
 impl GBuffer {
     /// Traces one ray through every pixel centre of `cam`'s view (rays: width x height).
     pub fn build(scene: &Scene, cam: &Camera) -> GBuffer {
+        GBuffer::build_until(scene, cam, &|| false).expect("a build that never stops completes")
+    }
+
+    /// `build`, asking `stop` before each row: None once it says stop (a render cancelled, or a
+    /// session's view replaced, while its G-buffer is built stops within a row of work).
+    pub fn build_until(scene: &Scene, cam: &Camera, stop: &(dyn Fn() -> bool + Sync)) -> Option<GBuffer> {
         let (w, h) = (cam.width as usize, cam.height as usize);
         let mut pixels = filled(w * h, GSample::BACKGROUND);
+        let stopped = std::sync::atomic::AtomicBool::new(false);
         pixels.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            if stopped.load(std::sync::atomic::Ordering::Relaxed) || stop() {
+                stopped.store(true, std::sync::atomic::Ordering::Relaxed);
+                return;
+            }
             for (x, px) in row.iter_mut().enumerate() {
                 let dir = cam.direction(x as f32 + 0.5, y as f32 + 0.5);
                 let Some(s) = scene.intersect(cam.position, dir, 0.0) else { continue };
@@ -86,7 +97,7 @@ impl GBuffer {
                 };
             }
         });
-        GBuffer { width: w as u32, height: h as u32, pixels }
+        (!stopped.into_inner()).then_some(GBuffer { width: w as u32, height: h as u32, pixels })
     }
 
     /// The projected pixel size d of every pixel (0 for background), divided by
@@ -163,5 +174,21 @@ mod tests {
         let kds: std::collections::HashSet<_> =
             g.pixels.iter().filter(|p| p.is_valid()).map(|p| (p.kd.x * 10.0) as i32).collect();
         assert_eq!(kds.len(), 2);
+    }
+
+    #[test]
+    fn a_build_stops_within_a_row_once_asked() {
+        let s = scene();
+        let cam = s.default_view();
+        let whole = GBuffer::build(&s, &cam);
+        let same = GBuffer::build_until(&s, &cam, &|| false).unwrap();
+        assert!(whole.pixels.iter().zip(&same.pixels).all(|(a, b)| a.depth.to_bits() == b.depth.to_bits()));
+        assert!(GBuffer::build_until(&s, &cam, &|| true).is_none());
+        // Asked once per row: a stop after three rows ends the build there.
+        let asked = std::sync::atomic::AtomicUsize::new(0);
+        let stop = || asked.fetch_add(1, std::sync::atomic::Ordering::Relaxed) >= 3;
+        assert!(GBuffer::build_until(&s, &cam, &stop).is_none());
+        let rows = asked.load(std::sync::atomic::Ordering::Relaxed);
+        assert!((4..cam.height as usize).contains(&rows), "asked {rows} times of {} rows", cam.height);
     }
 }
