@@ -40,8 +40,13 @@ pub fn render(
         tracing::debug!(seconds = start.elapsed().as_secs_f64(), "G-buffer built");
     }
     // The denoiser inputs do not change from pass to pass: traced once, shared by every frame.
-    let aovs = (job.aov_samples > 0)
-        .then(|| Arc::new(Aovs::trace(&job.scene, &job.view, job.aov_samples, job.seed, job.pixel_centers)));
+    let aovs = if job.aov_samples > 0 {
+        let (samples, centres) = (job.aov_samples, job.pixel_centers);
+        let a = Aovs::trace_until(&job.scene, &job.view, samples, job.seed, centres, &|| cancel.is_cancelled());
+        Some(Arc::new(a.ok_or(RenderError::Cancelled)?))
+    } else {
+        None
+    };
     let aov_rays = aovs.as_ref().map_or(0, |_| {
         Aovs::rays_per_pixel(job.aov_samples, job.pixel_centers) as u64 * job.width() as u64 * job.height() as u64
     });

@@ -43,32 +43,41 @@ impl Aovs {
     /// The AOVs of `view` (internal frame) of `scene`, each pixel the mean of `samples` camera
     /// rays (at least 1) placed by the sample stream of `seed`, or through the pixel centres.
     pub fn trace(scene: &Scene, view: &Camera, samples: u32, seed: u64, pixel_centers: bool) -> Aovs {
+        Self::trace_until(scene, view, samples, seed, pixel_centers, &|| false).expect("a trace that never stops ends")
+    }
+
+    /// `trace`, asking `stop` before each row: None once it says stop (a render cancelled while
+    /// its denoiser inputs are traced stops within a row of work).
+    pub fn trace_until(
+        scene: &Scene,
+        view: &Camera,
+        samples: u32,
+        seed: u64,
+        pixel_centers: bool,
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Option<Aovs> {
         let (w, h) = (view.width as usize, view.height as usize);
         let samples = Self::rays_per_pixel(samples, pixel_centers);
-        let per_pixel: Vec<([f32; 3], [f32; 3], f32)> = (0..w * h)
+        let rows: Vec<Vec<PixelAovs>> = (0..h)
             .into_par_iter()
-            .with_min_len(w.max(1))
-            .map(|i| pixel(scene, view, i % w, i / w, samples, seed, pixel_centers))
-            .collect();
+            .map(|y| {
+                (!stop()).then(|| (0..w).map(|x| pixel(scene, view, x, y, samples, seed, pixel_centers)).collect())
+            })
+            .collect::<Option<_>>()?;
         let mut aovs = Aovs::default();
-        for (a, n, d) in per_pixel {
+        for (a, n, d) in rows.into_iter().flatten() {
             aovs.albedo.push(a);
             aovs.normal.push(n);
             aovs.depth.push(d);
         }
-        aovs
+        Some(aovs)
     }
 }
 
-fn pixel(
-    scene: &Scene,
-    view: &Camera,
-    x: usize,
-    y: usize,
-    samples: u32,
-    seed: u64,
-    centre: bool,
-) -> ([f32; 3], [f32; 3], f32) {
+/// A pixel's albedo, normal and depth.
+type PixelAovs = ([f32; 3], [f32; 3], f32);
+
+fn pixel(scene: &Scene, view: &Camera, x: usize, y: usize, samples: u32, seed: u64, centre: bool) -> PixelAovs {
     let (mut albedo, mut normal, mut depth, mut hits) = (Vec3::ZERO, Vec3::ZERO, 0.0f64, 0u32);
     for i in 0..samples {
         let j = if centre {
@@ -173,5 +182,15 @@ mod tests {
         let e = Aovs::trace(&s, &v, 4, 2, false);
         assert!(e.albedo.iter().chain(&e.normal).all(|p| *p == [0.0; 3]));
         assert!(e.depth.iter().all(|d| d.is_infinite()));
+    }
+
+    #[test]
+    fn a_trace_asked_to_stop_gives_up() {
+        let s = scene(8);
+        let v = s.default_view();
+        let whole = Aovs::trace(&s, &v, 4, 1, false);
+        let same = Aovs::trace_until(&s, &v, 4, 1, false, &|| false).unwrap();
+        assert_eq!((whole.albedo, whole.normal), (same.albedo, same.normal));
+        assert!(Aovs::trace_until(&s, &v, 4, 1, false, &|| true).is_none());
     }
 }
