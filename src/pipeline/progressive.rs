@@ -28,9 +28,11 @@ pub fn render(
     let start = Instant::now();
     let halt = &job.halt;
     let deadline = halt.time_budget.map(|b| start + b);
-    // Built before pass 0, and given up within a row of work if the render is cancelled.
+    // The G-buffer and the denoiser inputs are built before pass 0, and given up within a row
+    // of work if the render is cancelled.
+    let cancelled = || cancel.is_cancelled();
     let gbuffer = if job.method.spec().needs_gbuffer {
-        let g = GBuffer::build_until(&job.scene, &job.view, &|| cancel.is_cancelled());
+        let g = GBuffer::build_until(&job.scene, &job.view, &cancelled);
         Some(Arc::new(g.ok_or(RenderError::Cancelled)?))
     } else {
         None
@@ -42,7 +44,7 @@ pub fn render(
     // The denoiser inputs do not change from pass to pass: traced once, shared by every frame.
     let aovs = if job.aov_samples > 0 {
         let (samples, centres) = (job.aov_samples, job.pixel_centers);
-        let a = Aovs::trace_until(&job.scene, &job.view, samples, job.seed, centres, &|| cancel.is_cancelled());
+        let a = Aovs::trace_until(&job.scene, &job.view, samples, job.seed, centres, &cancelled);
         Some(Arc::new(a.ok_or(RenderError::Cancelled)?))
     } else {
         None

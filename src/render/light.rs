@@ -321,13 +321,7 @@ impl RectLight {
         }
         match self.profile {
             EmissionProfile::Uniform => {
-                let quad = [
-                    self.corner,
-                    self.corner + self.edge_u,
-                    self.corner + self.edge_u + self.edge_v,
-                    self.corner + self.edge_v,
-                ];
-                let clipped = clip_above_both(x, n, ng, &quad);
+                let clipped = clip_above_both(x, n, ng, &self.quad());
                 if clipped.len < 3 {
                     0.0
                 } else {
