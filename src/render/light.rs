@@ -636,14 +636,25 @@ impl PointLight {
 /// (e.g. Arvo 1995, "Applications of Irradiance Tensors"). Valid when the whole polygon is
 /// above x's horizon. The analytic oracle for the direct-lighting tests.
 pub fn polygon_irradiance(x: Vec3, n: Vec3, vertices: &[Vec3]) -> f64 {
+    let dir = |v: Vec3| (v - x).as_dvec3().normalize();
+    let n = n.as_dvec3();
+    let Some(&first) = vertices.first() else { return 0.0 };
+    // Each vertex's direction once: it ends one edge and starts the next.
+    let first = dir(first);
+    let mut a = first;
     let mut sum = 0.0f64;
     for i in 0..vertices.len() {
-        let a = (vertices[i] - x).as_dvec3().normalize();
-        let b = (vertices[(i + 1) % vertices.len()] - x).as_dvec3().normalize();
-        let theta = a.dot(b).clamp(-1.0, 1.0).acos();
+        let b = if i + 1 < vertices.len() { dir(vertices[i + 1]) } else { first };
+        // theta = atan2(|a x b|, a . b) and n . gamma = n . (a x b) / |a x b|: one square root
+        // for both, and atan2 keeps theta accurate on the short edges of a far light, where
+        // acos of a dot product near 1 loses it.
+        let c = a.cross(b);
+        let s = c.length();
         // A repeated vertex (a corner on the clipping plane is emitted twice) is an empty edge.
-        let gamma = a.cross(b).normalize_or_zero();
-        sum += theta * n.as_dvec3().dot(gamma);
+        if s > 0.0 {
+            sum += s.atan2(a.dot(b)) / s * n.dot(c);
+        }
+        a = b;
     }
     0.5 * sum.abs()
 }

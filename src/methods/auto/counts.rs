@@ -1,6 +1,7 @@
-//! `auto`'s per-pixel sample counts once the image has enough samples to tell where its noise is
-//! (methods.md §5.1): part of each pass's samples goes where one sample of the shadowed direct
-//! light varies most, the penumbrae.
+//! `auto`'s per-pixel sample counts from its second pass on (methods.md §5.1): part of each
+//! pass's samples goes where one sample of the shadowed direct light varies most, the penumbrae.
+//! Each pixel's visibility variance is read off the shadow rays of its neighbourhood, so that one
+//! sample per pixel already shows where the penumbrae lie.
 //!
 //! At a fixed total N, the sum of the pixels' variances sum_p sigma_p^2 / n_p is least for
 //! n_p ∝ sigma_p (a Lagrange multiplier), sigma_p the standard deviation of one sample. Mehta
@@ -15,14 +16,19 @@ use crate::pipeline::film::mean;
 use rayon::prelude::*;
 
 /// The standard deviation of one sample of a pixel's shadowed diffuse direct light, summed over
-/// its rectangular lights: r sqrt(v (1 - v)) per light and channel, v = A / B the visibility
-/// (binary per shadow ray, so its variance is v (1 - v) where the integrand u is constant over
-/// the light) and r the exact unshadowed light. Channels are averaged.
-pub(super) fn direct_light_sigma(lights: &[LightSums]) -> f64 {
+/// its rectangular lights: r sqrt(v (1 - v)) per light and channel, v the visibility (binary per
+/// shadow ray, so its variance is v (1 - v) where the integrand u is constant over the light)
+/// and r the pixel's exact unshadowed light. Channels are averaged. `pooled(l)` gives light l's
+/// sums (A, B) over the pixel's neighbourhood, v = A / B: a pixel's own few samples would see
+/// no variance at all (one sample's v is 0 or 1), while a neighbourhood that holds both lit and
+/// occluded rays marks a penumbra from the first sample on.
+pub(super) fn direct_light_sigma(lights: &[LightSums], pooled: &dyn Fn(usize) -> ([f64; 3], [f64; 3])) -> f64 {
     let var: f64 = lights
         .iter()
-        .map(|ls| {
-            let (r, v) = (mean(ls.r, ls.r_n), ratio(ls.a, ls.b));
+        .enumerate()
+        .map(|(l, ls)| {
+            let (a, b) = pooled(l);
+            let (r, v) = (mean(ls.r, ls.r_n), ratio(a, b));
             (0..3).map(|c| r[c] * r[c] * (v[c] * (1.0 - v[c])).clamp(0.0, 0.25)).sum::<f64>() / 3.0
         })
         .sum();
@@ -31,6 +37,33 @@ pub(super) fn direct_light_sigma(lights: &[LightSums]) -> f64 {
     } else {
         0.0
     }
+}
+
+/// Per pixel, `direct_light_sigma` with the visibility pooled over the (2 `radius` + 1)^2 pixels
+/// around it (clipped at the image's border). Pixel-major `light_sums`, `lights` per pixel.
+pub(super) fn pooled_sigmas(width: usize, radius: usize, light_sums: &[LightSums], lights: usize) -> Vec<f64> {
+    let (w, n) = (width.max(1), light_sums.len() / lights.max(1));
+    let h = n / w;
+    (0..n)
+        .into_par_iter()
+        .map(|p| {
+            let (x, y) = (p % w, p / w);
+            let pooled = |l: usize| {
+                let (mut a, mut b) = ([0.0f64; 3], [0.0f64; 3]);
+                for qy in y.saturating_sub(radius)..(y + radius + 1).min(h) {
+                    for qx in x.saturating_sub(radius)..(x + radius + 1).min(w) {
+                        let s = &light_sums[(qy * w + qx) * lights + l];
+                        for c in 0..3 {
+                            a[c] += s.a[c];
+                            b[c] += s.b[c];
+                        }
+                    }
+                }
+                (a, b)
+            };
+            direct_light_sigma(&light_sums[p * lights..(p + 1) * lights], &pooled)
+        })
+        .collect()
 }
 
 /// The samples each pixel should have after a pass whose mean is `target`, or None while the
@@ -46,6 +79,7 @@ pub(super) fn adaptive_targets(
     opts: &AutoOptions,
     target: u32,
     bounces: u32,
+    width: usize,
     sums: &[PixelSums],
     light_sums: &[LightSums],
     lights: usize,
@@ -53,7 +87,7 @@ pub(super) fn adaptive_targets(
     if opts.adaptive_from_spp == 0 || target < opts.adaptive_from_spp || lights == 0 || bounces > 0 {
         return None;
     }
-    let sigma: Vec<f64> = light_sums.par_chunks(lights).map(direct_light_sigma).collect();
+    let sigma = pooled_sigmas(width, opts.adaptive_radius, light_sums, lights);
     // A sequential sum: the counts must not depend on the thread count.
     let total: f64 = sigma.iter().sum();
     if !(total > 0.0 && total.is_finite()) {
@@ -66,15 +100,29 @@ pub(super) fn adaptive_targets(
     // What the cap cut off goes evenly to the pixels under it, so that the pass keeps its total.
     let under = want.iter().filter(|&&x| x < cap).count();
     let spare = (n * t - want.iter().sum::<f64>()).max(0.0) / under.max(1) as f64;
-    Some(
-        want.par_iter()
-            .zip(sums)
-            .map(|(&x, px)| {
-                let x = if x < cap { x + spare } else { x };
-                (x.round().min(u32::MAX as f64) as u32).max(px.taken)
-            })
-            .collect(),
-    )
+    let want: Vec<f64> = want.par_iter().map(|&x| if x < cap { x + spare } else { x }).collect();
+    let counts = whole_counts(&want, (n * t).round());
+    Some(counts.par_iter().zip(sums).map(|(&c, px)| c.max(px.taken)).collect())
+}
+
+/// Whole counts for the real ones `want`, summing to `total` where `want` does: each rounded
+/// down, and what that leaves given one each to the pixels with the largest fractional parts
+/// (ties to the lower index). Rounding each to nearest could leave the pass's mean under its
+/// target, and a render halted at that mean would then never reach it.
+fn whole_counts(want: &[f64], total: f64) -> Vec<u32> {
+    let mut counts: Vec<u32> = want.par_iter().map(|&x| x.max(0.0).floor().min(u32::MAX as f64) as u32).collect();
+    let sum: f64 = counts.iter().map(|&c| c as f64).sum();
+    let short = (total - sum).max(0.0).min(want.len() as f64) as usize;
+    if short > 0 {
+        let mut order: Vec<usize> = (0..want.len()).collect();
+        let frac = |p: usize| want[p] - want[p].floor();
+        // A total order (fraction, then index): the result does not depend on the sort.
+        order.par_sort_unstable_by(|&a, &b| frac(b).total_cmp(&frac(a)).then(a.cmp(&b)));
+        for &p in &order[..short] {
+            counts[p] = counts[p].saturating_add(1);
+        }
+    }
+    counts
 }
 
 /// The count every pixel reaches in an adaptive pass of mean `target`, the uniform share.
@@ -90,70 +138,135 @@ mod tests {
         LightSums { a: [a; 3], b: [b; 3], r: [r; 3], r_n: 1, ..LightSums::default() }
     }
 
+    /// `direct_light_sigma` of a pixel's own samples.
+    fn own_sigma(lights: &[LightSums]) -> f64 {
+        direct_light_sigma(lights, &|l| (lights[l].a, lights[l].b))
+    }
+
+    /// The defaults with each pixel's own samples (no neighbourhood), as the hand counts below.
+    fn own_opts() -> AutoOptions {
+        AutoOptions { adaptive_radius: 0, ..AutoOptions::default() }
+    }
+
     #[test]
     fn sigma_is_that_of_a_binary_visibility_times_the_unshadowed_light() {
         // Half the light seen: r sqrt(1/4) = r / 2; fully lit and fully shadowed: no noise.
-        assert!((direct_light_sigma(&[light(5.0, 10.0, 0.8)]) - 0.4).abs() < 1e-12);
-        assert_eq!(direct_light_sigma(&[light(10.0, 10.0, 0.8)]), 0.0);
-        assert_eq!(direct_light_sigma(&[light(0.0, 10.0, 0.8)]), 0.0);
+        assert!((own_sigma(&[light(5.0, 10.0, 0.8)]) - 0.4).abs() < 1e-12);
+        assert_eq!(own_sigma(&[light(10.0, 10.0, 0.8)]), 0.0);
+        assert_eq!(own_sigma(&[light(0.0, 10.0, 0.8)]), 0.0);
         // Two lights: their variances add.
-        let two = direct_light_sigma(&[light(5.0, 10.0, 0.8), light(2.0, 10.0, 0.6)]);
+        let two = own_sigma(&[light(5.0, 10.0, 0.8), light(2.0, 10.0, 0.6)]);
         assert!((two - (0.16f64 + 0.36 * 0.16).sqrt()).abs() < 1e-12);
         // Nothing sampled yet (b = 0 reads as lit) and a non-finite r give no noise, not NaN.
-        assert_eq!(direct_light_sigma(&[light(0.0, 0.0, 1.0)]), 0.0);
-        assert_eq!(direct_light_sigma(&[light(5.0, 10.0, f64::INFINITY)]), 0.0);
+        assert_eq!(own_sigma(&[light(0.0, 0.0, 1.0)]), 0.0);
+        assert_eq!(own_sigma(&[light(5.0, 10.0, f64::INFINITY)]), 0.0);
+    }
+
+    /// After one sample per pixel each pixel's own visibility is 0 or 1 and shows no variance;
+    /// pooled over a neighbourhood, the pixels near the shadow's edge show it, the ones whose
+    /// neighbourhood lies wholly on one side do not, and the border clips the window.
+    #[test]
+    fn a_neighbourhood_shows_a_penumbra_after_one_sample() {
+        let (w, h) = (5, 4);
+        // Columns 0-1 occluded, 2-4 lit; r = 0.8 everywhere.
+        let sums: Vec<LightSums> =
+            (0..w * h).map(|p| if p % w < 2 { light(0.0, 1.0, 0.8) } else { light(1.0, 1.0, 0.8) }).collect();
+        assert!(pooled_sigmas(w, 0, &sums, 1).iter().all(|&s| s == 0.0));
+        let s = pooled_sigmas(w, 1, &sums, 1);
+        for y in 0..h {
+            let row = &s[y * w..(y + 1) * w];
+            // Column 1 sees columns 0-2 (v = 1/3), column 2 sees 1-3 (v = 2/3): the same v (1 - v).
+            let edge = 0.8 * (2.0f64 / 9.0).sqrt();
+            assert!((row[1] - edge).abs() < 1e-12 && (row[2] - edge).abs() < 1e-12, "row {y}: {row:?}");
+            assert_eq!((row[0], row[4]), (0.0, 0.0), "row {y}: a window on one side of the edge");
+            // Column 3 sees 2-4 only: lit.
+            assert_eq!(row[3], 0.0);
+        }
+        // Two lights: the pooled variances add, each light's from its own sums.
+        let two: Vec<LightSums> = sums.iter().flat_map(|&s| [s, light(1.0, 2.0, 0.5)]).collect();
+        let s2 = pooled_sigmas(w, 1, &two, 2);
+        assert!((s2[1] - (0.64f64 * 2.0 / 9.0 + 0.25 * 0.25).sqrt()).abs() < 1e-12);
+        // And the counts follow: with the pass's mean at 4, the edge columns get the most.
+        let px = vec![PixelSums { taken: 1, ..PixelSums::default() }; w * h];
+        let opts = AutoOptions { adaptive_radius: 1, ..AutoOptions::default() };
+        let t = adaptive_targets(&opts, 4, 0, w, &px, &sums, 1).expect("adaptive from 4 spp");
+        assert_eq!((t[0], t[1], t[2], t[3]), (2, 7, 7, 2), "{t:?}");
+        assert_eq!(t.iter().sum::<u32>(), 4 * (w * h) as u32);
     }
 
     /// Four pixels, one in a penumbra: it gets the adaptive half of the four pixels' samples
     /// on top of its uniform half, the others the uniform half; the total is kept.
     #[test]
     fn the_adaptive_share_goes_to_the_noisy_pixels_and_the_total_is_kept() {
-        let opts = AutoOptions::default();
+        let opts = own_opts();
         let sums = vec![PixelSums { taken: 16, ..PixelSums::default() }; 4];
         let lights = [light(10.0, 10.0, 1.0), light(5.0, 10.0, 1.0), light(0.0, 10.0, 1.0), light(10.0, 10.0, 1.0)];
-        let t = adaptive_targets(&opts, 64, 0, &sums, &lights, 1).expect("adaptive at 64 spp");
+        let t = adaptive_targets(&opts, 64, 0, 4, &sums, &lights, 1).expect("adaptive at 64 spp");
         assert_eq!(t, [32, (32.0 + 0.5 * 64.0 * 4.0f64).min(opts.adaptive_max_ratio * 64.0) as u32, 32, 32]);
         // Spread over two noisy pixels, nothing is capped and the total is exactly 4 x 64.
         let lights = [light(5.0, 10.0, 1.0), light(5.0, 10.0, 1.0), light(0.0, 10.0, 1.0), light(10.0, 10.0, 1.0)];
-        let t = adaptive_targets(&opts, 64, 0, &sums, &lights, 1).unwrap();
+        let t = adaptive_targets(&opts, 64, 0, 4, &sums, &lights, 1).unwrap();
         assert_eq!(t, [96, 96, 32, 32]);
         assert_eq!(t.iter().sum::<u32>(), 4 * 64);
         assert!(t.iter().all(|&n| n >= uniform_share(&opts, 64)) && uniform_share(&opts, 64) == 32);
     }
 
+    /// The counts of a pass sum to exactly its total for any sigmas (a mean under the target
+    /// would keep a render halted at that mean from ever stopping), whatever the fractions.
+    #[test]
+    fn counts_sum_to_the_pass_total() {
+        use crate::render::test_rng::Rng;
+        let mut rng = Rng(5);
+        for case in 0..50 {
+            let n = 1 + case * 7;
+            let sums = vec![PixelSums { taken: 1, ..PixelSums::default() }; n];
+            let lights: Vec<LightSums> =
+                (0..n).map(|_| light((10.0 * rng.f() as f64).floor(), 10.0, rng.f() as f64)).collect();
+            for target in [4, 16, 64, 1000] {
+                let opts = AutoOptions { adaptive_radius: case % 3, ..AutoOptions::default() };
+                if let Some(t) = adaptive_targets(&opts, target, 0, 1 + case % 5, &sums, &lights, 1) {
+                    assert_eq!(t.iter().map(|&c| c as u64).sum::<u64>(), target as u64 * n as u64, "case {case}");
+                }
+            }
+        }
+        assert_eq!(whole_counts(&[1.5, 2.5, 3.0], 7.0), [2, 2, 3]);
+        assert_eq!(whole_counts(&[0.2, 0.7, 0.1], 1.0), [0, 1, 0]);
+    }
+
     /// A pixel held at the cap gives what it would have had beyond it to the others.
     #[test]
     fn what_the_cap_cuts_off_goes_to_the_other_pixels() {
-        let opts = AutoOptions { adaptive_max_ratio: 2.0, ..AutoOptions::default() };
+        let opts = AutoOptions { adaptive_max_ratio: 2.0, ..own_opts() };
         let sums = vec![PixelSums { taken: 16, ..PixelSums::default() }; 4];
         let lights = [light(10.0, 10.0, 1.0), light(5.0, 10.0, 1.0), light(0.0, 10.0, 1.0), light(10.0, 10.0, 1.0)];
-        let t = adaptive_targets(&opts, 64, 0, &sums, &lights, 1).unwrap();
-        // 160 capped at 128; the 32 cut off shared by three pixels: 32 + 32 / 3 each.
-        assert_eq!(t, [43, 128, 43, 43]);
+        let t = adaptive_targets(&opts, 64, 0, 4, &sums, &lights, 1).unwrap();
+        // 160 capped at 128; the 32 cut off shared by three pixels: 32 + 32 / 3 each, whole
+        // counts that keep the total of 256.
+        assert_eq!(t, [43, 128, 43, 42]);
     }
 
     #[test]
     fn counts_stay_uniform_below_the_threshold_without_shadow_noise_with_bounces_and_when_off() {
-        let mut opts = AutoOptions::default();
+        let mut opts = own_opts();
         let sums = vec![PixelSums::default(); 2];
         let noisy = [light(5.0, 10.0, 1.0), light(10.0, 10.0, 1.0)];
-        assert!(adaptive_targets(&opts, opts.adaptive_from_spp / 2, 0, &sums, &noisy, 1).is_none());
-        assert!(adaptive_targets(&opts, 256, 0, &sums, &[light(10.0, 10.0, 1.0); 2], 1).is_none());
-        assert!(adaptive_targets(&opts, 256, 0, &sums, &[], 0).is_none());
+        assert!(adaptive_targets(&opts, opts.adaptive_from_spp / 2, 0, 2, &sums, &noisy, 1).is_none());
+        assert!(adaptive_targets(&opts, 256, 0, 2, &sums, &[light(10.0, 10.0, 1.0); 2], 1).is_none());
+        assert!(adaptive_targets(&opts, 256, 0, 2, &sums, &[], 0).is_none());
         // With indirect light, whose noise sigma does not see.
-        assert!(adaptive_targets(&opts, 256, 1, &sums, &noisy, 1).is_none());
-        assert!(adaptive_targets(&opts, 256, 0, &sums, &noisy, 1).is_some());
+        assert!(adaptive_targets(&opts, 256, 1, 2, &sums, &noisy, 1).is_none());
+        assert!(adaptive_targets(&opts, 256, 0, 2, &sums, &noisy, 1).is_some());
         opts.adaptive_from_spp = 0;
-        assert!(adaptive_targets(&opts, 256, 0, &sums, &noisy, 1).is_none());
+        assert!(adaptive_targets(&opts, 256, 0, 2, &sums, &noisy, 1).is_none());
     }
 
     /// A pixel never loses samples it has: a count below what it holds is raised to it.
     #[test]
     fn no_pixel_falls_below_the_samples_it_has() {
-        let opts = AutoOptions::default();
+        let opts = own_opts();
         let mut sums = vec![PixelSums { taken: 64, ..PixelSums::default() }; 2];
         sums[1].taken = 500;
-        let t = adaptive_targets(&opts, 256, 0, &sums, &[light(5.0, 10.0, 1.0), light(10.0, 10.0, 1.0)], 1).unwrap();
+        let t = adaptive_targets(&opts, 256, 0, 2, &sums, &[light(5.0, 10.0, 1.0), light(10.0, 10.0, 1.0)], 1).unwrap();
         assert_eq!(t, [(128.0f64 + 256.0).min(opts.adaptive_max_ratio * 256.0) as u32, 500]);
     }
 }

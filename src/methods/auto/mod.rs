@@ -3,9 +3,10 @@
 //! Mehta 2013 for indirect light) with Tokuyoshi 2015's lobe-aware cross-bilateral weights in
 //! place of their normal threshold, every part of the light filtered apart and untextured.
 //!
-//! - **Samples.** Four times as many per pass, the same everywhere up to `adaptive_from_spp`;
-//!   from then on, in direct-light renders, half of each pass's samples go where one sample of
-//!   the shadowed direct light varies most (`counts.rs`). The AAF papers' counts (Eq. 21 in
+//! - **Samples.** Four times as many per pass, the same everywhere in pass 0; from then on
+//!   (`adaptive_from_spp`), in direct-light renders, half of each pass's samples go where one
+//!   sample of the shadowed direct light varies most, read off each pixel's neighbourhood
+//!   (`counts.rs`). The AAF papers' counts (Eq. 21 in
 //!   both) ask for far more than a preview budget has, so they are not used: the widths follow
 //!   the samples a pixel has instead. One jittered camera path per sample, split at its first
 //!   hit (`sample.rs`): each rectangular light's diffuse direct light as r(x) times visibility
@@ -177,7 +178,7 @@ impl AutoStrategy {
     fn trace(&mut self, ctx: &PassContext, before: u32, target: u32) -> Result<bool, RenderError> {
         let nl = self.lights.len();
         let Some(counts) =
-            counts::adaptive_targets(&self.opts, target, ctx.job.bounces, &self.sums, &self.light_sums, nl)
+            counts::adaptive_targets(&self.opts, target, ctx.job.bounces, self.width, &self.sums, &self.light_sums, nl)
         else {
             return self.trace_rounds(ctx, before, target, &|_| target);
         };

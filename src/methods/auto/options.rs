@@ -37,6 +37,9 @@ pub struct AutoOptions {
     /// pass's samples goes to the pixels whose shadowed direct light is noisiest (`counts.rs`);
     /// 0: the same count everywhere throughout.
     pub adaptive_from_spp: u32,
+    /// Radius in pixels of the neighbourhood whose shadow rays give a pixel's visibility
+    /// variance (`counts.rs`): 0, the pixel's own.
+    pub adaptive_radius: usize,
     /// That part, in [0, 1]; the rest is spread evenly, so that every pixel converges.
     pub adaptive_share: f64,
     /// No pixel asks for more than this many times the pass's mean count.
@@ -57,7 +60,8 @@ impl Default for AutoOptions {
             beta: 20.0,
             sigma_z2_relative: 0.01,
             r_block: 16,
-            adaptive_from_spp: 64,
+            adaptive_from_spp: 4,
+            adaptive_radius: 2,
             adaptive_share: 0.5,
             adaptive_max_ratio: 8.0,
         }
