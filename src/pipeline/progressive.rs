@@ -31,7 +31,7 @@ pub fn render(
     // The G-buffer and the denoiser inputs are built before pass 0, and given up within a row
     // of work if the render is cancelled.
     let cancelled = || cancel.is_cancelled();
-    let gbuffer = if job.method.spec().needs_gbuffer {
+    let gbuffer = if (job.method.spec().needs_gbuffer)(job) {
         let g = GBuffer::build_until(&job.scene, &job.view, &cancelled);
         Some(Arc::new(g.ok_or(RenderError::Cancelled)?))
     } else {

@@ -18,8 +18,8 @@ pub struct MethodSpec {
     pub summary: &'static str,
     /// Whether frames are filtered (then they carry unfiltered colour and filter widths).
     pub filters: bool,
-    /// Whether the pipeline builds the shared G-buffer before pass 0.
-    pub needs_gbuffer: bool,
+    /// Whether the pipeline builds the shared G-buffer before pass 0 for the job.
+    pub needs_gbuffer: fn(&RenderJob) -> bool,
     /// The names of the per-component maps (`Frame::components`) a frame of the job carries,
     /// in order: known before the render starts, so a stream can announce its layers.
     pub components: fn(&RenderJob) -> Vec<&'static str>,
@@ -33,7 +33,7 @@ pub const METHODS: &[MethodSpec] = &[
         proto: proto::Method::Uniform,
         summary: "plain Monte Carlo: the same samples everywhere, no filter (the baseline)",
         filters: false,
-        needs_gbuffer: false,
+        needs_gbuffer: |_| false,
         components: |_| Vec::new(),
         build: |job| Box::new(Uniform::new(job)),
     },
@@ -43,7 +43,7 @@ pub const METHODS: &[MethodSpec] = &[
         proto: proto::Method::Aaf,
         summary: "axis-aligned filtering of soft shadows (Mehta 2012) and indirect light (Mehta 2013)",
         filters: true,
-        needs_gbuffer: true,
+        needs_gbuffer: |_| true,
         components: |job| parts::component_names(job, FilterMode::Aaf),
         build: |job| parts::build(job, FilterMode::Aaf),
     },
@@ -53,7 +53,7 @@ pub const METHODS: &[MethodSpec] = &[
         proto: proto::Method::Adaptive,
         summary: "AAF's adaptive sample counts without its filter (a baseline)",
         filters: false,
-        needs_gbuffer: true,
+        needs_gbuffer: |_| true,
         components: |job| parts::component_names(job, FilterMode::Adaptive),
         build: |job| parts::build(job, FilterMode::Adaptive),
     },
@@ -63,7 +63,7 @@ pub const METHODS: &[MethodSpec] = &[
         proto: proto::Method::UniformFiltered,
         summary: "the same samples everywhere and a fixed-width filter (a baseline)",
         filters: true,
-        needs_gbuffer: true,
+        needs_gbuffer: |_| true,
         components: |job| parts::component_names(job, FilterMode::UniformFiltered),
         build: |job| parts::build(job, FilterMode::UniformFiltered),
     },
@@ -73,7 +73,7 @@ pub const METHODS: &[MethodSpec] = &[
         proto: proto::Method::LobeAware,
         summary: "indirect light filtered with specular lobe-aware weights (Tokuyoshi 2015)",
         filters: true,
-        needs_gbuffer: true,
+        needs_gbuffer: |_| true,
         components: |job| parts::component_names(job, FilterMode::LobeAware),
         build: |job| parts::build(job, FilterMode::LobeAware),
     },
@@ -83,7 +83,7 @@ pub const METHODS: &[MethodSpec] = &[
         proto: proto::Method::NormalAware,
         summary: "indirect light filtered with normal-aware weights (Tokuyoshi's baseline, Eq. 4)",
         filters: true,
-        needs_gbuffer: true,
+        needs_gbuffer: |_| true,
         components: |job| parts::component_names(job, FilterMode::NormalAware),
         build: |job| parts::build(job, FilterMode::NormalAware),
     },
@@ -93,7 +93,7 @@ pub const METHODS: &[MethodSpec] = &[
         proto: proto::Method::Auto,
         summary: "all light filtered apart: AAF's widths (Mehta 2012, 2013) with lobe-aware weights (Tokuyoshi 2015)",
         filters: true,
-        needs_gbuffer: true,
+        needs_gbuffer: auto::needs_gbuffer,
         components: auto::component_names,
         build: auto::build,
     },
@@ -103,7 +103,7 @@ pub const METHODS: &[MethodSpec] = &[
         proto: proto::Method::Bandwidth,
         summary: "environment light shaded on nested grids at its predicted bandwidth (Bagher 2012)",
         filters: false,
-        needs_gbuffer: true,
+        needs_gbuffer: |_| true,
         components: |_| Vec::new(),
         build: |job| Box::new(BandwidthShading::new(job)),
     },
@@ -185,10 +185,15 @@ mod tests {
         }
     }
 
+    /// On an area-lit scene with a bounce, where every method has something to filter.
     #[test]
     fn filtering_methods_need_the_g_buffer() {
+        use crate::pipeline::job::Halt;
+        let scene = crate::methods::tests::builtin("cornell", 8, 8);
         for s in METHODS {
-            assert!(!s.filters || s.needs_gbuffer, "{} filters without a G-buffer", s.name);
+            let mut job = RenderJob::new(scene.clone(), s.method, Halt::passes(1));
+            job.bounces = 1;
+            assert!(!s.filters || (s.needs_gbuffer)(&job), "{} filters without a G-buffer", s.name);
         }
     }
 }

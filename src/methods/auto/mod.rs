@@ -27,7 +27,8 @@
 //!   specular lobe for the glossy light (`lobe_aware::packed`).
 //!
 //! Ambient-occlusion renders are the indirect paper's extension (Sec. 6): `auto` renders them as
-//! `aaf` does.
+//! `aaf` does. A render with nothing to filter (direct light from point and environment lights
+//! alone) is plain Monte Carlo: `auto` renders it as `uniform` does.
 mod counts;
 pub mod options;
 mod sample;
@@ -43,6 +44,7 @@ use super::lobe_aware::filter::Guide;
 use super::lobe_aware::packed::{gather, PackedGuide, PackedOptions};
 use super::mode::FilterMode;
 use super::parts;
+use super::uniform::Uniform;
 use crate::pipeline::film::{mean, Tally};
 use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
@@ -61,8 +63,22 @@ use widths::Widths;
 pub fn build(job: &RenderJob) -> Box<dyn Strategy> {
     match job.integrand {
         Integrand::AmbientOcclusion { .. } => parts::build(job, FilterMode::Aaf),
+        Integrand::Radiance if renders_as_uniform(job) => Box::new(Uniform::new(job)),
         Integrand::Radiance => Box::new(AutoStrategy::new(job)),
     }
+}
+
+/// Whether `job` leaves `auto` nothing to filter: no rectangular light and no indirect light
+/// (point and environment lights alone, direct light only). Its samples would then be plain
+/// Monte Carlo's with the costs of a G-buffer, guides and filters on top, so it renders as
+/// `uniform` does, sample for sample.
+pub fn renders_as_uniform(job: &RenderJob) -> bool {
+    matches!(job.integrand, Integrand::Radiance) && component_names(job).is_empty()
+}
+
+/// Whether the pipeline builds the G-buffer for `auto`'s render of `job`.
+pub fn needs_gbuffer(job: &RenderJob) -> bool {
+    !renders_as_uniform(job)
 }
 
 /// The per-component maps a frame of `job` carries, in order.

@@ -364,3 +364,21 @@ fn a_render_capped_at_a_mean_count_halts_there() {
         }
     }
 }
+
+/// Under point lights alone with no bounces `auto` has nothing to filter: it renders as
+/// `uniform`, frame for frame and bit for bit, without a G-buffer (no rays beyond uniform's).
+/// With a bounce, or with a rectangular light, it filters again.
+#[test]
+fn nothing_to_filter_renders_as_uniform() {
+    let s = builtin("cornell-glossy", 24, 20);
+    assert!(s.lights.iter().all(|l| matches!(l, crate::render::light::Light::Point(_))));
+    let (a, u) = (job(s.clone(), Method::Auto, 4, 9, 0), job(s.clone(), Method::Uniform, 4, 9, 0));
+    assert!(super::renders_as_uniform(&a) && component_names(&a).is_empty());
+    let (fa, fu) = (all_frames(&a), all_frames(&u));
+    assert_eq!(fa.len(), 4);
+    for (x, y) in fa.iter().zip(&fu) {
+        assert_eq!((&x.color, &x.spp, x.stats.rays_traced), (&y.color, &y.spp, y.stats.rays_traced));
+    }
+    assert!(!super::renders_as_uniform(&job(s, Method::Auto, 4, 9, 1)));
+    assert!(!super::renders_as_uniform(&job(builtin("cornell", 8, 8), Method::Auto, 4, 9, 0)));
+}
