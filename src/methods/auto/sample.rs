@@ -24,6 +24,10 @@ pub(super) struct PixelSums {
     /// Nearest and farthest reflector hit by the analysis samples' bounce rays.
     pub z_min: f32,
     pub z_max: f32,
+    /// What the first camera sample saw (object and shading normal; None: nothing), and whether
+    /// a later one of the first `r_block` saw something else: the pixel straddles an edge.
+    pub first_seen: Option<(u32, Vec3)>,
+    pub mixed: bool,
 }
 
 impl Default for PixelSums {
@@ -35,6 +39,8 @@ impl Default for PixelSums {
             glossy: ComponentSums::default(),
             z_min: f32::INFINITY,
             z_max: 0.0,
+            first_seen: None,
+            mixed: false,
         }
     }
 }
@@ -52,6 +58,28 @@ pub(super) struct LightSums {
     /// Extreme slopes of the analysis samples' occluded shadow rays.
     pub occ: OccluderRange,
 }
+
+impl PixelSums {
+    /// Notes what camera sample `index` saw (None: nothing, or a light), while `index` is among
+    /// the first `r_block`.
+    pub(super) fn note_seen(&mut self, index: u32, r_block: u32, seen: Option<(u32, Vec3)>) {
+        if index >= r_block || self.mixed {
+            return;
+        }
+        if index == 0 {
+            self.first_seen = seen;
+            return;
+        }
+        self.mixed = match (self.first_seen, seen) {
+            (Some((o0, n0)), Some((o, n))) => o != o0 || n.dot(n0) < EDGE_COS,
+            (None, None) => false,
+            _ => true,
+        };
+    }
+}
+
+/// Two shading normals further apart than this (about 25 degrees) within a pixel make it an edge.
+const EDGE_COS: f32 = 0.9;
 
 impl Default for LightSums {
     fn default() -> Self {
@@ -82,12 +110,14 @@ impl Sampling<'_> {
         let j = if job.pixel_centers { [0.5, 0.5] } else { j };
         let dir = job.view.direction(x as f32 + j[0], y as f32 + j[1]);
         let indirect = job.bounces > 0;
+        let r_due = self.r_due(index, px.mixed);
         let Some(hit) = scene.intersect(job.view.position, dir, 0.0) else {
+            px.note_seen(index, self.r_block, None);
             // r's mean counts the samples that see nothing (or a light, or a black surface)
             // as zeros: the pixel's share of the surface the light falls on.
             for (light, slot) in scene.lights.iter().zip(self.slot) {
                 if let (Light::Rect(_), Some(l)) = (light, slot) {
-                    lights[*l].r_n += u32::from(self.r_due(index));
+                    lights[*l].r_n += u32::from(r_due);
                 }
             }
             if indirect {
@@ -104,6 +134,7 @@ impl Sampling<'_> {
         let wo = -dir;
         let brdf = scene.materials[hit.material as usize].brdf(hit.uv);
         let emitter = matches!(scene.materials[hit.material as usize], Material::Emitter { .. });
+        px.note_seen(index, self.r_block, (!emitter).then_some((hit.object, hit.ns)));
         let front = hit.ns.dot(wo) > 0.0;
         let (mut rays, mut dropped) = (1u64, 0u64);
         let mut rest = emitted(scene, &hit, wo);
@@ -113,7 +144,7 @@ impl Sampling<'_> {
             let u = dims.light;
             if let (Light::Rect(rect), Some(l)) = (light, slot) {
                 let s = &mut lights[*l];
-                if self.r_due(index) {
+                if r_due {
                     s.r_n += 1;
                     let r = unshadowed(rect, &hit, wo, brdf.kd);
                     if !emitter && r.is_finite() {
@@ -172,10 +203,11 @@ impl Sampling<'_> {
     /// costs as much as a shadow ray (an 8 x 8 quadrature for Gaussian lights). Whole blocks of
     /// consecutive indices keep the subset stratified (each is a net of the Sobol sequence; every
     /// fourth single sample would crowd into one quarter of the pixel), and the count still grows
-    /// without bound.
-    fn r_due(&self, index: u32) -> bool {
-        let block = self.r_block.max(1);
-        index < block || (index / block).is_multiple_of(4)
+    /// without bound. In a pixel whose first block saw two surfaces (`mixed`), every sample:
+    /// there r's average over the pixel is its coverage of each, as noisy as the visibility's,
+    /// and a quarter of the samples left it the largest error of the image's edges.
+    fn r_due(&self, index: u32, mixed: bool) -> bool {
+        r_due(self.r_block, index, mixed)
     }
 
     /// The indirect light at the first hit, diffuse and glossy apart, as `aaf_indirect` samples
@@ -230,6 +262,12 @@ impl Sampling<'_> {
         px.glossy.add(brdf.ks, glossy);
         (rays, dropped)
     }
+}
+
+/// `Sampling::r_due` for blocks of `r_block` samples.
+pub(super) fn r_due(r_block: u32, index: u32, mixed: bool) -> bool {
+    let block = r_block.max(1);
+    mixed || index < block || (index / block).is_multiple_of(4)
 }
 
 fn record_reflector(px: &mut PixelSums, z: Option<f32>) {

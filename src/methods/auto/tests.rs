@@ -382,3 +382,31 @@ fn nothing_to_filter_renders_as_uniform() {
     assert!(!super::renders_as_uniform(&job(s, Method::Auto, 4, 9, 1)));
     assert!(!super::renders_as_uniform(&job(builtin("cornell", 8, 8), Method::Auto, 4, 9, 0)));
 }
+
+/// A pixel whose first block of samples sees two surfaces (two objects, shading normals more
+/// than about 25 degrees apart, or a surface and nothing or a light) is an edge and computes r
+/// on every sample; one that sees a single surface keeps to the blocks. What later samples see
+/// does not change it.
+#[test]
+fn pixels_on_edges_compute_r_on_every_sample() {
+    use super::sample::{r_due, PixelSums};
+    let seen = |events: &[(u32, Option<(u32, Vec3)>)]| {
+        let mut px = PixelSums::default();
+        for &(i, s) in events {
+            px.note_seen(i, 16, s);
+        }
+        px.mixed
+    };
+    let tilted = |deg: f32| Vec3::new(deg.to_radians().sin(), 0.0, deg.to_radians().cos());
+    assert!(!seen(&[(0, Some((1, Vec3::Z))), (1, Some((1, tilted(10.0)))), (15, Some((1, Vec3::Z)))]));
+    assert!(seen(&[(0, Some((1, Vec3::Z))), (1, Some((2, Vec3::Z)))]), "two objects");
+    assert!(seen(&[(0, Some((1, Vec3::Z))), (5, Some((1, tilted(30.0))))]), "a crease within one mesh");
+    assert!(seen(&[(0, None), (1, Some((1, Vec3::Z)))]), "the background and a surface");
+    assert!(!seen(&[(0, None), (1, None)]));
+    assert!(!seen(&[(0, Some((1, Vec3::Z))), (16, Some((2, Vec3::Z)))]), "only the first block decides");
+    assert!(seen(&[(0, Some((1, Vec3::Z))), (3, Some((2, Vec3::Z))), (4, Some((1, Vec3::Z)))]), "it stays an edge");
+    // The blocks: 0-15, then 64-79, 128-143, ...; an edge pixel every sample.
+    let due: Vec<u32> = (0..160).filter(|&i| r_due(16, i, false)).collect();
+    assert_eq!(due, (0..16).chain(64..80).chain(128..144).collect::<Vec<_>>());
+    assert!((0..160).all(|i| r_due(16, i, true)));
+}
