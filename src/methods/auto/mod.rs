@@ -25,10 +25,14 @@
 //! - **Filter.** Tokuyoshi's gather (Eq. 1) with the depth weight (Eq. 3) and the lobe-aware
 //!   weight (Eq. 12): diffuse lobes for the visibility and the diffuse light, each pixel's
 //!   specular lobe for the glossy light (`lobe_aware::packed`).
+//! - **Bias against noise.** From `blend_from_spp` samples on, each pixel leans on its own
+//!   unfiltered mean as far as the filter's bias, read off its neighbourhood, outweighs that
+//!   mean's variance (`blend.rs`).
 //!
 //! Ambient-occlusion renders are the indirect paper's extension (Sec. 6): `auto` renders them as
 //! `aaf` does. A render with nothing to filter (direct light from point and environment lights
 //! alone) is plain Monte Carlo: `auto` renders it as `uniform` does.
+mod blend;
 mod counts;
 pub mod options;
 mod sample;
@@ -340,7 +344,7 @@ impl AutoStrategy {
         // Compose: rest + sum over lights of r times visibility + K filter(Lbar) + (P - K Lbar)
         // per indirect component (`aaf_indirect`: the correction makes the unfiltered limit
         // exactly the Monte Carlo mean where the reflectance varies over the pixel).
-        let (color, unfiltered): (Vec<[f32; 3]>, Vec<[f32; 3]>) = (0..n)
+        let composed: Vec<([f64; 3], [f64; 3])> = (0..n)
             .into_par_iter()
             .map(|p| {
                 let s = &self.sums[p];
@@ -363,8 +367,22 @@ impl AutoStrategy {
                         unfiltered[c] += prod[c];
                     }
                 }
-                (color.map(|x| x.max(0.0) as f32), unfiltered.map(|x| x.max(0.0) as f32))
+                (color, unfiltered)
             })
+            .collect();
+        // Where the filter's bias outgrows the noise it removes (`blend.rs`).
+        let from = self.opts.blend_from_spp;
+        let variance = |p: usize| {
+            let s = &self.sums[p];
+            if from > 0 && s.x_n >= from {
+                s.mean_variance()
+            } else {
+                f64::INFINITY
+            }
+        };
+        let weights = blend::pooled_weights(self.width, &composed, &variance);
+        let (color, unfiltered): (Vec<[f32; 3]>, Vec<[f32; 3]>) = (composed.par_iter().zip(&weights))
+            .map(|(&(f, u), &a)| (blend::mix(f, u, a).map(|x| x.max(0.0) as f32), u.map(|x| x.max(0.0) as f32)))
             .unzip();
         let spp: Vec<f32> = self.sums.par_iter().map(|s| s.taken as f32).collect();
         Frame {

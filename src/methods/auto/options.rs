@@ -42,6 +42,11 @@ pub struct AutoOptions {
     pub adaptive_radius: usize,
     /// That part, in [0, 1]; the rest is spread evenly, so that every pixel converges.
     pub adaptive_share: f64,
+    /// From this many samples on, a pixel's frame value is mixed with its own unfiltered mean as
+    /// far as the filter's bias, read off their difference, outweighs the mean's variance
+    /// (`blend.rs`); 0: never. Fewer samples' variance misses the tail of the indirect light too
+    /// often to be trusted.
+    pub blend_from_spp: u32,
     /// No pixel asks for more than this many times the pass's mean count.
     pub adaptive_max_ratio: f64,
 }
@@ -64,6 +69,7 @@ impl Default for AutoOptions {
             adaptive_radius: 2,
             adaptive_share: 0.5,
             adaptive_max_ratio: 8.0,
+            blend_from_spp: 64,
         }
     }
 }

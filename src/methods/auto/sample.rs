@@ -28,6 +28,12 @@ pub(super) struct PixelSums {
     /// a later one of the first `r_block` saw something else: the pixel straddles an edge.
     pub first_seen: Option<(u32, Vec3)>,
     pub mixed: bool,
+    /// Sums of each sample's plain Monte Carlo value x (everything it adds, the rect lights'
+    /// diffuse light as u V) and of x^2, over `x_n` finite samples: the unfiltered pixel's
+    /// variance, an upper estimate of it (`edge_blend`).
+    pub x: [f64; 3],
+    pub x2: [f64; 3],
+    pub x_n: u32,
 }
 
 impl Default for PixelSums {
@@ -41,6 +47,9 @@ impl Default for PixelSums {
             z_max: 0.0,
             first_seen: None,
             mixed: false,
+            x: [0.0; 3],
+            x2: [0.0; 3],
+            x_n: 0,
         }
     }
 }
@@ -60,6 +69,25 @@ pub(super) struct LightSums {
 }
 
 impl PixelSums {
+    fn add_x(&mut self, x: Vec3) {
+        if x.is_finite() {
+            self.x_n += 1;
+            for c in 0..3 {
+                self.x[c] += x[c] as f64;
+                self.x2[c] += (x[c] * x[c]) as f64;
+            }
+        }
+    }
+
+    /// The variance of the mean of the samples' plain values, summed over the channels.
+    pub(super) fn mean_variance(&self) -> f64 {
+        if self.x_n < 2 {
+            return f64::INFINITY;
+        }
+        let n = self.x_n as f64;
+        (0..3).map(|c| (self.x2[c] / n - (self.x[c] / n).powi(2)).max(0.0) / (n - 1.0)).sum()
+    }
+
     /// Notes what camera sample `index` saw (None: nothing, or a light), while `index` is among
     /// the first `r_block`.
     pub(super) fn note_seen(&mut self, index: u32, r_block: u32, seen: Option<(u32, Vec3)>) {
@@ -128,6 +156,7 @@ impl Sampling<'_> {
             for c in 0..3 {
                 px.rest[c] += background[c] as f64;
             }
+            px.add_x(background);
             return (1, 0);
         };
         let analysis = index < self.analysis_spp;
@@ -138,6 +167,8 @@ impl Sampling<'_> {
         let front = hit.ns.dot(wo) > 0.0;
         let (mut rays, mut dropped) = (1u64, 0u64);
         let mut rest = emitted(scene, &hit, wo);
+        // The rect lights' diffuse light as plain Monte Carlo gives it (for `x` alone).
+        let mut diffuse_direct = Vec3::ZERO;
         // Every light draws its dimension pair, used or not, so that the streams stay aligned.
         for (light, slot) in scene.lights.iter().zip(self.slot) {
             let dims = LightDims::draw(light, &mut sampler);
@@ -172,6 +203,7 @@ impl Sampling<'_> {
                     }
                     if visible {
                         rest += g;
+                        diffuse_direct += u;
                     }
                 }
                 (Light::Rect(_), None) => {}
@@ -189,11 +221,14 @@ impl Sampling<'_> {
         } else {
             dropped += 1;
         }
+        let mut x = rest + diffuse_direct;
         if indirect {
-            let (r, d) = self.indirect(&hit, wo, front, analysis, &mut sampler, px);
+            let (r, d, reflected) = self.indirect(&hit, wo, front, analysis, &mut sampler, px);
             rays += r;
             dropped += d;
+            x += reflected;
         }
+        px.add_x(x);
         (rays, dropped)
     }
 
@@ -211,7 +246,8 @@ impl Sampling<'_> {
     }
 
     /// The indirect light at the first hit, diffuse and glossy apart, as `aaf_indirect` samples
-    /// it: one cosine ray for kd, one lobe-sampled ray for ks.
+    /// it: one cosine ray for kd, one lobe-sampled ray for ks. Returns (rays, dropped, the
+    /// light reflected: kd and ks times their incident light).
     fn indirect(
         &self,
         hit: &Surface,
@@ -220,7 +256,7 @@ impl Sampling<'_> {
         analysis: bool,
         sampler: &mut PixelSampler,
         px: &mut PixelSums,
-    ) -> (u64, u64) {
+    ) -> (u64, u64, Vec3) {
         let scene = self.scene;
         let bounces = self.job.bounces;
         let (u_d, u_s) = (sampler.next_2d(), sampler.next_2d());
@@ -260,7 +296,8 @@ impl Sampling<'_> {
         }
         px.diffuse.add(brdf.kd, diffuse);
         px.glossy.add(brdf.ks, glossy);
-        (rays, dropped)
+        let reflected = brdf.kd * diffuse.unwrap_or(Vec3::ZERO) + brdf.ks * glossy.unwrap_or(Vec3::ZERO);
+        (rays, dropped, reflected)
     }
 }
 
