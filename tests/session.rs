@@ -19,7 +19,11 @@ use wedge::server::{FrameAssembler, ServerConfig};
 struct Session {
     tx: mpsc::Sender<SessionRequest>,
     events: tonic::Streaming<SessionEvent>,
+    /// Every frame event goes through it as it arrives (`next`), whoever reads the event, so
+    /// that it never sees a frame's chunks without the render's start.
     asm: FrameAssembler,
+    /// The frame the last event completed.
+    completed: Option<Frame>,
 }
 
 impl Session {
@@ -27,7 +31,7 @@ impl Session {
         let (tx, rx) = mpsc::channel(16);
         tx.send(SessionRequest { kind: Some(session_request::Kind::Open(req)) }).await.unwrap();
         let events = server.client().await.session(ReceiverStream::new(rx)).await?.into_inner();
-        Ok(Session { tx, events, asm: FrameAssembler::new() })
+        Ok(Session { tx, events, asm: FrameAssembler::new(), completed: None })
     }
 
     async fn update(&self, u: SessionUpdate) {
@@ -35,7 +39,23 @@ impl Session {
     }
 
     async fn next(&mut self) -> Result<Option<SessionEvent>, tonic::Status> {
-        within(60, "a session event", self.events.message()).await
+        let e = within(60, "a session event", self.events.message()).await?;
+        self.completed = e.as_ref().and_then(|e| self.assemble(e));
+        Ok(e)
+    }
+
+    /// Feeds a frame event to the assembler; the frame it completes, if any.
+    fn assemble(&mut self, e: &SessionEvent) -> Option<Frame> {
+        let kind = match e.kind.clone().expect("an event kind") {
+            Kind::Started(s) => {
+                self.asm = FrameAssembler::new();
+                render_update::Kind::Started(s)
+            }
+            Kind::Chunk(c) => render_update::Kind::Chunk(c),
+            Kind::FrameComplete(f) => render_update::Kind::FrameComplete(f),
+            Kind::Ack(_) | Kind::Error(_) => return None,
+        };
+        self.asm.push(RenderUpdate { kind: Some(kind) }).expect("well-formed")
     }
 
     /// Events until the final frame of `generation`; the frames (each with its generation) and
@@ -45,20 +65,10 @@ impl Session {
         loop {
             let e = self.next().await.expect("session ok").expect("session open");
             seen.push(e.clone());
-            let g = e.generation;
-            let kind = match e.kind.clone().expect("an event kind") {
-                Kind::Started(s) => {
-                    self.asm = FrameAssembler::new();
-                    render_update::Kind::Started(s)
-                }
-                Kind::Chunk(c) => render_update::Kind::Chunk(c),
-                Kind::FrameComplete(f) => render_update::Kind::FrameComplete(f),
-                Kind::Ack(_) | Kind::Error(_) => continue,
-            };
-            if let Some(frame) = self.asm.push(RenderUpdate { kind: Some(kind) }).expect("well-formed") {
+            if let Some(frame) = self.completed.take() {
                 let is_final = frame.stats.is_final;
-                frames.push((g, frame));
-                if is_final && g == generation {
+                frames.push((e.generation, frame));
+                if is_final && e.generation == generation {
                     return (frames, seen);
                 }
             }
@@ -521,7 +531,7 @@ async fn a_watched_session_takes_its_changes_by_update_session() {
     assert_eq!(n, 2);
     let bad = SessionUpdate { width: 1 << 20, ..Default::default() };
     assert_eq!(client.update_session(update(bad)).await.unwrap().into_inner().update, 3);
-    let mut s = Session { tx: mpsc::channel(1).0, events, asm: FrameAssembler::new() };
+    let mut s = Session { tx: mpsc::channel(1).0, events, asm: FrameAssembler::new(), completed: None };
     let (frames, seen) = s.until_final(2).await;
     let ack = seen.iter().position(|e| matches!(e.kind, Some(Kind::Ack(ref a)) if a.update == 2)).expect("ack");
     assert_eq!(seen[ack].generation, 2);
