@@ -85,8 +85,7 @@ pub fn relative_error(color: &[[f32; 3]], spp: &[f32], next: &Frame) -> Option<f
     }
     let (mut sq, mut sum) = (0.0f64, 0.0f64);
     for (p, (a, b)) in color.iter().zip(&next.color).enumerate() {
-        let (n0, n1) = (spp.get(p).copied().unwrap_or(0.0) as f64, next.spp.get(p).copied().unwrap_or(0.0) as f64);
-        let weight = variance_weight(n0, n1);
+        let weight = variance_weight(spp, next, p);
         for c in 0..3 {
             let d = (a[c] - b[c]) as f64;
             sq += d * d * weight;
@@ -103,9 +102,10 @@ pub fn relative_error(color: &[[f32; 3]], spp: &[f32], next: &Frame) -> Option<f
     (mean > 0.0 && rmse.is_finite()).then(|| rmse / mean)
 }
 
-/// The weight that turns a pixel's squared change between frames of n0 and n1 samples into the
-/// variance of the newer one: n0 / (n1 - n0), or 1 where it got no new samples.
-fn variance_weight(n0: f64, n1: f64) -> f64 {
+/// The weight that turns pixel `p`'s squared change between a frame of `spp` samples and `next`
+/// into the variance of the newer one: n0 / (n1 - n0), or 1 where it got no new samples.
+fn variance_weight(spp: &[f32], next: &Frame, p: usize) -> f64 {
+    let (n0, n1) = (spp.get(p).copied().unwrap_or(0.0) as f64, next.spp.get(p).copied().unwrap_or(0.0) as f64);
     if n1 > n0 && n0 > 0.0 {
         n0 / (n1 - n0)
     } else {
@@ -124,8 +124,7 @@ fn relative_bias(unfiltered: &[[f32; 3]], spp: &[f32], next: &Frame) -> Option<f
     }
     let (mut sq, mut sum) = (0.0f64, 0.0f64);
     for (p, ((u0, u1), f)) in unfiltered.iter().zip(u1).zip(&next.color).enumerate() {
-        let (n0, n1) = (spp.get(p).copied().unwrap_or(0.0) as f64, next.spp.get(p).copied().unwrap_or(0.0) as f64);
-        let weight = variance_weight(n0, n1);
+        let weight = variance_weight(spp, next, p);
         for c in 0..3 {
             let (d, e) = ((f[c] - u1[c]) as f64, (u0[c] - u1[c]) as f64);
             sq += d * d - e * e * weight;

@@ -20,37 +20,31 @@ use rayon::prelude::*;
 const TRUST: f64 = 1.5;
 
 /// Per pixel, the weight a. `composed` holds (F, U) per pixel, row-major `width` wide;
-/// `variance(p)` is U's variance summed over the channels (infinite: too few samples to tell;
+/// `variance[p]` is U's variance summed over the channels (infinite: too few samples to tell;
 /// the pixel is neither mixed nor read). One weight for the three channels, so that the mix
 /// does not shift the colour; a NaN anywhere gives 0.
-pub(super) fn pooled_weights(
-    width: usize,
-    composed: &[([f64; 3], [f64; 3])],
-    variance: &(dyn Fn(usize) -> f64 + Sync),
-) -> Vec<f64> {
+pub(super) fn pooled_weights(width: usize, composed: &[([f64; 3], [f64; 3])], variance: &[f64]) -> Vec<f64> {
     let w = width.max(1);
     let h = composed.len() / w;
+    // Each pixel's squared difference, once (None: not read).
+    let readable: Vec<Option<(f64, f64)>> = (composed.par_iter().zip(variance))
+        .map(|(&(f, u), &v)| {
+            let d2: f64 = (0..3).map(|c| (f[c] - u[c]).powi(2)).sum();
+            (v.is_finite() && v >= 0.0 && d2.is_finite()).then_some((d2, v))
+        })
+        .collect();
     (0..composed.len())
         .into_par_iter()
         .map(|p| {
-            let v = variance(p);
+            let v = variance[p];
             if !(v.is_finite() && v >= 0.0) {
                 return 0.0;
             }
-            let (x, y) = (p % w, p / w);
             let (mut d2, mut vs, mut k) = (0.0f64, 0.0f64, 0u32);
-            for qy in y.saturating_sub(1)..(y + 2).min(h) {
-                for qx in x.saturating_sub(1)..(x + 2).min(w) {
-                    let q = qy * w + qx;
-                    let vq = variance(q);
-                    let (f, u) = composed[q];
-                    let dq: f64 = (0..3).map(|c| (f[c] - u[c]).powi(2)).sum();
-                    if vq.is_finite() && vq >= 0.0 && dq.is_finite() {
-                        d2 += dq;
-                        vs += vq;
-                        k += 1;
-                    }
-                }
+            for (dq, vq) in super::window(w, h, p, 1).filter_map(|q| readable[q]) {
+                d2 += dq;
+                vs += vq;
+                k += 1;
             }
             let bias2 = if k > 0 { ((d2 - TRUST * vs) / k as f64).max(0.0) } else { 0.0 };
             if bias2 + v > 0.0 && composed[p].1.iter().all(|c| c.is_finite()) {
@@ -76,7 +70,7 @@ mod tests {
     use super::*;
 
     fn weights(w: usize, composed: &[([f64; 3], [f64; 3])], v: f64) -> Vec<f64> {
-        pooled_weights(w, composed, &|_| v)
+        pooled_weights(w, composed, &vec![v; composed.len()])
     }
 
     #[test]

@@ -43,20 +43,16 @@ pub(super) fn direct_light_sigma(lights: &[LightSums], pooled: &dyn Fn(usize) ->
 /// around it (clipped at the image's border). Pixel-major `light_sums`, `lights` per pixel.
 pub(super) fn pooled_sigmas(width: usize, radius: usize, light_sums: &[LightSums], lights: usize) -> Vec<f64> {
     let (w, n) = (width.max(1), light_sums.len() / lights.max(1));
-    let h = n / w;
     (0..n)
         .into_par_iter()
         .map(|p| {
-            let (x, y) = (p % w, p / w);
             let pooled = |l: usize| {
                 let (mut a, mut b) = ([0.0f64; 3], [0.0f64; 3]);
-                for qy in y.saturating_sub(radius)..(y + radius + 1).min(h) {
-                    for qx in x.saturating_sub(radius)..(x + radius + 1).min(w) {
-                        let s = &light_sums[(qy * w + qx) * lights + l];
-                        for c in 0..3 {
-                            a[c] += s.a[c];
-                            b[c] += s.b[c];
-                        }
+                for q in super::window(w, n / w, p, radius) {
+                    let s = &light_sums[q * lights + l];
+                    for c in 0..3 {
+                        a[c] += s.a[c];
+                        b[c] += s.b[c];
                     }
                 }
                 (a, b)

@@ -371,14 +371,9 @@ impl AutoStrategy {
             .collect();
         // Where the filter's bias outgrows the noise it removes (`blend.rs`).
         let from = self.opts.blend_from_spp;
-        let variance = |p: usize| {
-            let s = &self.sums[p];
-            if from > 0 && s.x_n >= from {
-                s.mean_variance()
-            } else {
-                f64::INFINITY
-            }
-        };
+        let variance: Vec<f64> = (self.sums.par_iter())
+            .map(|s| if from > 0 && s.x_n >= from { s.mean_variance() } else { f64::INFINITY })
+            .collect();
         let weights = blend::pooled_weights(self.width, &composed, &variance);
         let (color, unfiltered): (Vec<[f32; 3]>, Vec<[f32; 3]>) = (composed.par_iter().zip(&weights))
             .map(|(&(f, u), &a)| (blend::mix(f, u, a).map(|x| x.max(0.0) as f32), u.map(|x| x.max(0.0) as f32)))
@@ -402,6 +397,14 @@ impl AutoStrategy {
             components,
         }
     }
+}
+
+/// The pixels of the (2 `radius` + 1)^2 window around pixel `p` of a `width` x `height` image,
+/// clipped at its border, row by row.
+fn window(width: usize, height: usize, p: usize, radius: usize) -> impl Iterator<Item = usize> {
+    let (x, y) = (p % width.max(1), p / width.max(1));
+    (y.saturating_sub(radius)..(y + radius + 1).min(height))
+        .flat_map(move |qy| (x.saturating_sub(radius)..(x + radius + 1).min(width)).map(move |qx| qy * width + qx))
 }
 
 /// Sweeps over the image per pass (`AutoStrategy::trace_rounds`).

@@ -30,7 +30,7 @@ pub(super) struct PixelSums {
     pub mixed: bool,
     /// Sums of each sample's plain Monte Carlo value x (everything it adds, the rect lights'
     /// diffuse light as u V) and of x^2, over `x_n` finite samples: the unfiltered pixel's
-    /// variance, an upper estimate of it (`edge_blend`).
+    /// variance, an upper estimate of it (`blend.rs`).
     pub x: [f64; 3],
     pub x2: [f64; 3],
     pub x_n: u32,

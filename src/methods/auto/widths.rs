@@ -159,13 +159,10 @@ pub(super) fn neighbourhood_reflectors(
                 [window.0[0] - o[0], window.0[1] - o[1], window.0[2] - o[2]]
             } else {
                 let mut sum = [0.0f64; 3];
-                for ny in y.saturating_sub(radius)..(y + radius + 1).min(h) {
-                    for nx in x.saturating_sub(radius)..(x + radius + 1).min(w) {
-                        let q = ny * w + nx;
-                        if q != p && pixels[q].object == c.object {
-                            let e = own(&pixels[q]);
-                            sum = [sum[0] + e[0], sum[1] + e[1], sum[2] + e[2]];
-                        }
+                for q in super::window(w, h, p, radius) {
+                    if q != p && pixels[q].object == c.object {
+                        let e = own(&pixels[q]);
+                        sum = [sum[0] + e[0], sum[1] + e[1], sum[2] + e[2]];
                     }
                 }
                 sum
