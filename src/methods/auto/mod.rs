@@ -24,9 +24,11 @@
 //! - **Filter.** Tokuyoshi's gather (Eq. 1) with the depth weight (Eq. 3) and the lobe-aware
 //!   weight (Eq. 12): diffuse lobes for the visibility and the diffuse light, each pixel's
 //!   specular lobe for the glossy light (`lobe_aware::packed`).
-//! - **Bias against noise.** From `blend_from_spp` samples on, each pixel leans on its own
-//!   unfiltered mean as far as the filter's bias, read off its neighbourhood, outweighs that
-//!   mean's variance (`blend.rs`).
+//! - **Bias against noise.** From `narrow_from_spp` samples on, the diffuse indirect light is
+//!   also filtered at half its width, and each pixel leans towards that frame as far as the wide
+//!   filter's bias, read off its neighbourhood, outweighs the narrow one's noise (`scales.rs`:
+//!   a room's creases). From `blend_from_spp` on, each pixel leans on its own unfiltered mean
+//!   the same way (`blend.rs`).
 //!
 //! Ambient-occlusion renders are the indirect paper's extension (Sec. 6): `auto` renders them as
 //! `aaf` does. A render with nothing to filter (direct light from point and environment lights
@@ -35,6 +37,7 @@ mod blend;
 mod counts;
 pub mod options;
 mod sample;
+mod scales;
 #[cfg(test)]
 mod tests;
 mod widths;
@@ -58,6 +61,7 @@ use crate::render::light::Light;
 use crate::render::sampler::hash_words;
 use rayon::prelude::*;
 use sample::{LightSums, PixelSums, Sampling};
+use scales::Composed;
 use std::sync::Arc;
 use std::time::Instant;
 use widths::Widths;
@@ -315,13 +319,17 @@ impl AutoStrategy {
                 filter_width: Some(shadow_width),
             });
         }
-        // Indirect light: each component's untextured light, filtered.
+        // Indirect light: each component's untextured light, filtered; the diffuse light also at
+        // the narrow scale, once the samples can tell its bias (`scales.rs`).
         let parts: &[bool] = match (ctx.job.bounces > 0, self.glossy) {
             (false, _) => &[],
             (true, false) => &[false],
             (true, true) => &[false, true],
         };
-        let indirect: Vec<(bool, Vec<[f32; 3]>)> = parts
+        let from = self.opts.narrow_from_spp;
+        let two_scales = self.opts.narrow_scale > 0.0 && self.sums.iter().any(|s| s.x_n >= from);
+        let mut narrow_sigma = vec![0.0f32; n];
+        let indirect: Vec<IndirectPart> = parts
             .iter()
             .map(|&glossy| {
                 let at = |p: usize| if glossy { &self.sums[p].glossy } else { &self.sums[p].diffuse };
@@ -330,6 +338,13 @@ impl AutoStrategy {
                 let sigma = widths.indirect(ctx, glossy, &self.sums, &self.opts);
                 let base = if glossy { &self.glossy_guides } else { &self.diffuse_guides };
                 let guides = invalid_unless(base, &|p| at(p).surface > 0);
+                let narrow = (two_scales && !glossy).then(|| {
+                    let scale = self.opts.narrow_scale as f32;
+                    narrow_sigma.iter_mut().zip(&sigma).for_each(|(ns, s)| *ns = s * scale);
+                    let mut narrow = light.clone();
+                    gather(&guides, &narrow_sigma, self.width, &mut narrow, &o);
+                    narrow
+                });
                 gather(&guides, &sigma, self.width, &mut light, &o);
                 max_into(&mut width_px, &sigma);
                 components.push(ComponentMaps {
@@ -337,13 +352,13 @@ impl AutoStrategy {
                     spp: (0..n).into_par_iter().map(|p| at(p).n as f32).collect(),
                     filter_width: Some(sigma),
                 });
-                (glossy, light)
+                IndirectPart { glossy, light, narrow }
             })
             .collect();
         // Compose: rest + sum over lights of r times visibility + K filter(Lbar) + (P - K Lbar)
         // per indirect component (`aaf_indirect`: the correction makes the unfiltered limit
         // exactly the Monte Carlo mean where the reflectance varies over the pixel).
-        let composed: Vec<([f64; 3], [f64; 3])> = (0..n)
+        let composed: Vec<Composed> = (0..n)
             .into_par_iter()
             .map(|p| {
                 let s = &self.sums[p];
@@ -357,18 +372,26 @@ impl AutoStrategy {
                         unfiltered[c] += r[c] * raw[c];
                     }
                 }
-                for (glossy, light) in &indirect {
+                let mut narrow = color;
+                for IndirectPart { glossy, light, narrow: narrow_light } in &indirect {
                     let cs = if *glossy { &s.glossy } else { &s.diffuse };
                     let (k, raw, prod) =
                         (mean(cs.reflectance, cs.n), mean(cs.light, cs.surface), mean(cs.product, cs.n));
+                    let narrow_light = narrow_light.as_ref().unwrap_or(light);
                     for c in 0..3 {
                         color[c] += k[c] * light[p][c] as f64 + (prod[c] - k[c] * raw[c]);
+                        narrow[c] += k[c] * narrow_light[p][c] as f64 + (prod[c] - k[c] * raw[c]);
                         unfiltered[c] += prod[c];
                     }
                 }
-                (color, unfiltered)
+                Composed { wide: color, narrow, unfiltered }
             })
             .collect();
+        let composed = if two_scales {
+            scales::select(self.width, &composed, &self.sums, &narrow_sigma, from)
+        } else {
+            composed.par_iter().map(|c| (c.wide, c.unfiltered)).collect()
+        };
         // Where the filter's bias outgrows the noise it removes (`blend.rs`).
         let from = self.opts.blend_from_spp;
         let variance: Vec<f64> = (self.sums.par_iter())
@@ -397,6 +420,14 @@ impl AutoStrategy {
             components,
         }
     }
+}
+
+/// One indirect component's untextured light, filtered at its width and (the diffuse light,
+/// from `narrow_from_spp` on) at the narrow scale.
+struct IndirectPart {
+    glossy: bool,
+    light: Vec<[f32; 3]>,
+    narrow: Option<Vec<[f32; 3]>>,
 }
 
 /// The pixels of the (2 `radius` + 1)^2 window around pixel `p` of a `width` x `height` image,

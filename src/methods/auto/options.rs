@@ -49,6 +49,13 @@ pub struct AutoOptions {
     pub blend_from_spp: u32,
     /// No pixel asks for more than this many times the pass's mean count.
     pub adaptive_max_ratio: f64,
+    /// The diffuse indirect light is also filtered at this fraction of each width, and each
+    /// pixel leans towards that frame where the neighbourhood shows the wide filter's bias
+    /// (`scales.rs`); 0: one scale.
+    pub narrow_scale: f64,
+    /// From this many samples per pixel on (fewer samples' variance is too unreliable to weigh
+    /// a bias against).
+    pub narrow_from_spp: u32,
 }
 
 impl Default for AutoOptions {
@@ -70,6 +77,8 @@ impl Default for AutoOptions {
             adaptive_share: 0.5,
             adaptive_max_ratio: 8.0,
             blend_from_spp: 64,
+            narrow_scale: 0.5,
+            narrow_from_spp: 32,
         }
     }
 }

@@ -1,0 +1,124 @@
+//! Two scales of the diffuse indirect filter: each pixel leans from the AAF-width filter towards
+//! one of a fraction of its width as far as the wide filter's bias, read off the difference of
+//! the two over the pixel's neighbourhood, outweighs the narrow one's noise (methods.md §5.3).
+//!
+//! The AAF widths (Mehta 2013 Eqs. 15-16) come from the neighbourhood's reflector distances and
+//! are capped by a screen kernel; both are smooth over a surface, so next to a room's crease,
+//! where the incident light falls off into the corner over a few pixels, the filter averages it
+//! with the open surface and the crease comes out too bright. A second gather at `narrow_scale`
+//! of each width has a quarter of the bias and four times the variance there. The two frames
+//! differ by about the wide one's bias plus the narrow one's noise; a bias is shared by a
+//! neighbourhood and noise is not, so `blend::pooled_weights` reads it as the unfiltered mix does,
+//! with the narrow frame in the unfiltered one's place: `W + a (N - W)`, a = b^2 / (b^2 + v_N).
+//! The narrow frame's variance v_N is the pixel's sample variance of the mean times the sum of a
+//! Gaussian kernel's squared weights (`kernel_power`), an upper estimate: it counts the direct
+//! light's noise too, which the two frames share and their difference does not carry.
+//!
+//! The glossy light keeps one scale: its sample variance, drawn from a spiky lobe, misses its
+//! tail at these counts, and narrowing it on that reading raised the error on `cornell-glossy`.
+use super::blend;
+use super::sample::PixelSums;
+use rayon::prelude::*;
+
+/// A pixel's frame value with the diffuse indirect light filtered at the AAF width (`wide`) and
+/// at `narrow_scale` of it (`narrow`), and its unfiltered value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Composed {
+    pub wide: [f64; 3],
+    pub narrow: [f64; 3],
+    pub unfiltered: [f64; 3],
+}
+
+/// The sum of the squared weights of a normalised 2-D Gaussian of standard deviation `sigma`
+/// pixels, 1 / (4 pi sigma^2) for a wide one, tending to 1 (the pixel alone) as it narrows.
+pub(super) fn kernel_power(sigma: f64) -> f64 {
+    1.0 / (1.0 + 4.0 * std::f64::consts::PI * sigma * sigma)
+}
+
+/// Per pixel, (frame value, unfiltered value): the wide value leaning towards the narrow one
+/// where the neighbourhood shows the wide filter's bias (module docs). `narrow_sigma[p]` is the
+/// narrow diffuse width in pixels; pixels with fewer than `from_spp` samples, or a
+/// `narrow_sigma` of 0 (nothing filtered), keep the wide value exactly.
+pub(super) fn select(
+    width: usize,
+    composed: &[Composed],
+    sums: &[PixelSums],
+    narrow_sigma: &[f32],
+    from_spp: u32,
+) -> Vec<([f64; 3], [f64; 3])> {
+    let variance: Vec<f64> = (sums.par_iter().zip(narrow_sigma))
+        .map(|(s, &sigma)| {
+            if s.x_n >= from_spp.max(2) && sigma > 0.0 {
+                s.mean_variance() * kernel_power(sigma as f64)
+            } else {
+                f64::INFINITY
+            }
+        })
+        .collect();
+    let pairs: Vec<([f64; 3], [f64; 3])> = composed.par_iter().map(|c| (c.wide, c.narrow)).collect();
+    let weights = blend::pooled_weights(width, &pairs, &variance);
+    (composed.par_iter().zip(&weights)).map(|(c, &a)| (blend::mix(c.wide, c.narrow, a), c.unfiltered)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pixel(n: u32, sd: f64) -> PixelSums {
+        // Samples 1 +- sd alternately: sample variance sd^2 n/(n-1) per channel.
+        let mut s = PixelSums::default();
+        for i in 0..n {
+            let x = if i % 2 == 0 { 1.0 + sd } else { 1.0 - sd };
+            s.x_n += 1;
+            for c in 0..3 {
+                s.x[c] += x;
+                s.x2[c] += x * x;
+            }
+        }
+        s
+    }
+
+    #[test]
+    fn kernel_power_is_one_for_no_kernel_and_the_gaussian_sum_when_wide() {
+        assert_eq!(kernel_power(0.0), 1.0);
+        let sigma = 3.0f64;
+        // Discrete sum of a normalised 2-D Gaussian's squared weights.
+        let r = 20i32;
+        let w: Vec<f64> = (-r..=r).map(|x| (-(x * x) as f64 / (2.0 * sigma * sigma)).exp()).collect();
+        let total: f64 = w.iter().sum::<f64>().powi(2);
+        let squares: f64 = w.iter().map(|a| a * a).sum::<f64>().powi(2) / (total * total);
+        assert!((kernel_power(sigma) / squares - 1.0).abs() < 0.01, "{} vs {squares}", kernel_power(sigma));
+    }
+
+    /// A crease along row 4 where the wide filter is 0.3 too bright: the frame there takes the
+    /// narrow value (up to the noise weight), and elsewhere, where the two differ by the narrow
+    /// frame's noise alone, it keeps the wide one; with too few samples it keeps the wide value
+    /// everywhere, bit for bit.
+    #[test]
+    fn the_narrow_scale_is_taken_where_the_wide_filter_is_biased_and_only_there() {
+        let (w, h) = (8, 9);
+        let sd = 0.5;
+        let sums = vec![pixel(64, sd); w * h];
+        let sigma = vec![1.5f32; w * h];
+        let v = sums[0].mean_variance() * kernel_power(1.5);
+        // Off the crease, narrow - wide alternates +-sqrt(v) (noise at its own level).
+        let composed: Vec<Composed> = (0..w * h)
+            .map(|p| {
+                let noise = if (p % w + p / w) % 2 == 0 { v.sqrt() } else { -v.sqrt() };
+                let (wide, narrow) = if p / w == 4 { (1.3, 1.0) } else { (1.0, 1.0 + noise / 3f64.sqrt()) };
+                Composed { wide: [wide; 3], narrow: [narrow; 3], unfiltered: [1.0; 3] }
+            })
+            .collect();
+        let out = select(w, &composed, &sums, &sigma, 32);
+        let crease = out[4 * w + 3].0[0];
+        assert!((crease - 1.0).abs() < 0.05, "crease {crease}");
+        for p in (0..w * h).filter(|p| (p / w) < 2 || (p / w) > 6) {
+            assert_eq!(out[p].0, composed[p].wide, "pixel {p} is noise only");
+            assert_eq!(out[p].1, composed[p].unfiltered);
+        }
+        let early = select(w, &composed, &sums, &sigma, 65);
+        assert!(early.iter().zip(&composed).all(|(o, c)| o.0 == c.wide));
+        let unfiltered = select(w, &composed, &sums, &vec![0.0; w * h], 32);
+        assert!(unfiltered.iter().zip(&composed).all(|(o, c)| o.0 == c.wide));
+    }
+}
