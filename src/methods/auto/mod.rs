@@ -327,7 +327,7 @@ impl AutoStrategy {
             (true, true) => &[false, true],
         };
         let from = self.opts.narrow_from_spp;
-        let two_scales = self.opts.narrow_scale > 0.0 && self.sums.iter().any(|s| s.x_n >= from);
+        let two_scales = self.opts.narrow_scale > 0.0 && !parts.is_empty() && self.sums.iter().any(|s| s.x_n >= from);
         let mut narrow_sigma = vec![0.0f32; n];
         let indirect: Vec<IndirectPart> = parts
             .iter()
