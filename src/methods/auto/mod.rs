@@ -295,6 +295,7 @@ impl AutoStrategy {
             guides.par_iter().enumerate().map(|(p, g)| if keep(p) { *g } else { PackedGuide::INVALID }).collect()
         };
         let max_into = |acc: &mut [f32], w: &[f32]| acc.iter_mut().zip(w).for_each(|(a, b)| *a = a.max(*b));
+        let diffuse_guides = straddling_guides(&self.diffuse_guides, &self.sums);
         // Soft shadows: each light's visibility, filtered.
         let mut shadow_width = vec![0.0f32; n];
         let visibility: Vec<Vec<[f32; 3]>> = (0..nl)
@@ -304,7 +305,7 @@ impl AutoStrategy {
                     (0..n).into_par_iter().map(|p| ratio(at(p).a, at(p).b).map(|x| x as f32)).collect();
                 let slopes = |p: usize| self.slopes.get(p * nl + l).and_then(|s| s.get());
                 let sigma = widths.shadow(ctx, &self.lights[l], slopes, &self.sums, &self.opts);
-                let guides = invalid_unless(&self.diffuse_guides, &|p| at(p).b.iter().any(|&b| b > 0.0));
+                let guides = invalid_unless(&diffuse_guides, &|p| at(p).b.iter().any(|&b| b > 0.0));
                 let mut vis = raw;
                 gather(&guides, &sigma, self.width, &mut vis, &o);
                 max_into(&mut shadow_width, &sigma);
@@ -336,7 +337,7 @@ impl AutoStrategy {
                 let mut light: Vec<[f32; 3]> =
                     (0..n).into_par_iter().map(|p| mean(at(p).light, at(p).surface).map(|x| x as f32)).collect();
                 let sigma = widths.indirect(ctx, glossy, &self.sums, &self.opts);
-                let base = if glossy { &self.glossy_guides } else { &self.diffuse_guides };
+                let base = if glossy { &self.glossy_guides } else { &diffuse_guides };
                 let guides = invalid_unless(base, &|p| at(p).surface > 0);
                 let narrow = (two_scales && !glossy).then(|| {
                     let scale = self.opts.narrow_scale as f32;
@@ -420,6 +421,25 @@ impl AutoStrategy {
             components,
         }
     }
+}
+
+/// The diffuse guides with each pixel whose first samples straddle an edge (`PixelSums::mixed`)
+/// turned to the mean of the normals those samples saw. The G-buffer's guide is its centre's
+/// face alone, so such a pixel would gather from that face's side only and take its light for
+/// the pixel's mix of both (a room's crease came out too bright); with the mean normal it
+/// gathers mostly from the pixels along the edge, which straddle it alike, and the faces'
+/// pixels mostly not from it.
+fn straddling_guides(guides: &[PackedGuide], sums: &[PixelSums]) -> Vec<PackedGuide> {
+    (guides.par_iter().zip(sums))
+        .map(|(g, s)| {
+            let n = s.seen_normals.normalize_or_zero();
+            if s.mixed && g.is_valid() && n != glam::Vec3::ZERO {
+                PackedGuide { axis: n.to_array(), ..*g }
+            } else {
+                *g
+            }
+        })
+        .collect()
 }
 
 /// One indirect component's untextured light, filtered at its width and (the diffuse light,

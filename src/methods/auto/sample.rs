@@ -28,6 +28,8 @@ pub(super) struct PixelSums {
     /// a later one of the first `r_block` saw something else: the pixel straddles an edge.
     pub first_seen: Option<(u32, Vec3)>,
     pub mixed: bool,
+    /// Sum of the shading normals the first `r_block` camera samples saw.
+    pub seen_normals: Vec3,
     /// Sums of each sample's plain Monte Carlo value x (everything it adds, the rect lights'
     /// diffuse light as u V) and of x^2, over `x_n` finite samples: the unfiltered pixel's
     /// variance, an upper estimate of it (`blend.rs`).
@@ -47,6 +49,7 @@ impl Default for PixelSums {
             z_max: 0.0,
             first_seen: None,
             mixed: false,
+            seen_normals: Vec3::ZERO,
             x: [0.0; 3],
             x2: [0.0; 3],
             x_n: 0,
@@ -91,7 +94,13 @@ impl PixelSums {
     /// Notes what camera sample `index` saw (None: nothing, or a light), while `index` is among
     /// the first `r_block`.
     pub(super) fn note_seen(&mut self, index: u32, r_block: u32, seen: Option<(u32, Vec3)>) {
-        if index >= r_block || self.mixed {
+        if index >= r_block {
+            return;
+        }
+        if let Some((_, n)) = seen {
+            self.seen_normals += n;
+        }
+        if self.mixed {
             return;
         }
         if index == 0 {

@@ -410,3 +410,30 @@ fn pixels_on_edges_compute_r_on_every_sample() {
     assert_eq!(due, (0..16).chain(64..80).chain(128..144).collect::<Vec<_>>());
     assert!((0..160).all(|i| r_due(16, i, true)));
 }
+
+/// A pixel whose first samples saw two faces of a crease (normals +x and +y) is guided by their
+/// mean normal; a pixel that saw one face keeps the G-buffer's guide, as does an invalid one,
+/// and samples after the first `r_block` do not count.
+#[test]
+fn a_pixel_straddling_an_edge_is_guided_by_the_mean_of_its_normals() {
+    use super::sample::PixelSums;
+    use super::straddling_guides;
+    use crate::methods::lobe_aware::packed::PackedGuide;
+    let guide = PackedGuide { axis: [1.0, 0.0, 0.0], sharpness: 2.0, ln_sharpness: 2f32.ln(), depth: 3.0, valid: 1.0 };
+    let mut straddling = PixelSums::default();
+    for i in 0..4 {
+        straddling.note_seen(i, 16, Some((0, if i % 2 == 0 { Vec3::X } else { Vec3::Y })));
+    }
+    straddling.note_seen(16, 16, Some((0, Vec3::Z)));
+    let mut flat = PixelSums::default();
+    for i in 0..4 {
+        flat.note_seen(i, 16, Some((0, Vec3::X)));
+    }
+    assert!(straddling.mixed && !flat.mixed);
+    let out = straddling_guides(&[guide, guide, PackedGuide::INVALID], &[straddling, flat, straddling]);
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    assert!(out[0].axis.iter().zip([h, h, 0.0]).all(|(a, b)| (a - b).abs() < 1e-6), "{:?}", out[0].axis);
+    assert_eq!(PackedGuide { axis: guide.axis, ..out[0] }, guide, "only the axis changes");
+    assert_eq!(out[1], guide);
+    assert_eq!(out[2], PackedGuide::INVALID);
+}
