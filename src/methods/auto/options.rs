@@ -42,13 +42,13 @@ pub struct AutoOptions {
     pub adaptive_radius: usize,
     /// That part, in [0, 1]; the rest is spread evenly, so that every pixel converges.
     pub adaptive_share: f64,
+    /// No pixel asks for more than this many times the pass's mean count.
+    pub adaptive_max_ratio: f64,
     /// From this many samples on, a pixel's frame value is mixed with its own unfiltered mean as
     /// far as the filter's bias, read off their difference, outweighs the mean's variance
     /// (`blend.rs`); 0: never. Fewer samples' variance misses the tail of the indirect light too
     /// often to be trusted.
     pub blend_from_spp: u32,
-    /// No pixel asks for more than this many times the pass's mean count.
-    pub adaptive_max_ratio: f64,
     /// The diffuse indirect light is also filtered at this fraction of each width, and each
     /// pixel leans towards that frame where the neighbourhood shows the wide filter's bias
     /// (`scales.rs`); 0: one scale.
