@@ -103,11 +103,18 @@ impl LatLongMap {
     pub fn lookup(&self, uv: [f32; 2]) -> Vec3 {
         let x = uv[0] * self.width as f32 - 0.5;
         let y = (uv[1] * (self.height - 1) as f32).clamp(0.0, (self.height - 1) as f32);
-        let (x0, y0) = (x.floor(), y.floor());
+        // floor() is a libm call on baseline x86-64 and rem_euclid a division; both are kept
+        // off the common path (an interior texel), with the same results.
+        let truncated = x as i64 as f32;
+        let x0 = if truncated > x { truncated - 1.0 } else { truncated };
+        let y0 = y as usize as f32; // y >= 0: truncation is floor
         let (fx, fy) = (x - x0, y - y0);
-        let w = self.width as i64;
-        let col = |i: i64| i.rem_euclid(w) as usize;
-        let (c0, c1) = (col(x0 as i64), col(x0 as i64 + 1));
+        let (w, i0) = (self.width as i64, x0 as i64);
+        let (c0, c1) = if i0 >= 0 && i0 + 1 < w {
+            (i0 as usize, i0 as usize + 1)
+        } else {
+            (i0.rem_euclid(w) as usize, (i0 + 1).rem_euclid(w) as usize)
+        };
         let r0 = y0 as usize;
         let r1 = (r0 + 1).min(self.height - 1);
         let at = |r: usize, c: usize| self.texels[r * self.width + c];
@@ -205,6 +212,28 @@ impl EnvironmentLight {
                 let wi = self.to_map.transpose() * local;
                 let radiance = m.lookup(uv) * self.scale;
                 pdf.is_finite().then_some(EnvironmentSample { wi, radiance, pdf })
+            }
+        }
+    }
+
+    /// `(radiance(w), pdf(w))`, the direction turned into the map's coordinates once: the
+    /// same numbers as the two calls.
+    #[inline]
+    pub fn radiance_and_pdf(&self, w: Vec3) -> (Vec3, f32) {
+        match &self.radiance {
+            EnvironmentRadiance::Constant(_) => (self.radiance(w), self.pdf(w)),
+            EnvironmentRadiance::Map(m) => {
+                let local = self.to_map * w;
+                let uv = direction_to_uv(local);
+                let radiance = m.lookup(uv) * self.scale;
+                if !(m.distribution.integral() > 0.0) || self.scale == 0.0 {
+                    return (radiance, 0.0);
+                }
+                let sin_theta = (1.0 - local.y * local.y).max(0.0).sqrt();
+                if sin_theta <= 0.0 {
+                    return (radiance, 0.0);
+                }
+                (radiance, m.distribution.pdf(uv) / (2.0 * PI * PI * sin_theta))
             }
         }
     }

@@ -167,9 +167,9 @@ pub fn environment_terms(
     if let Some(es) = env.sample(u_light) {
         let cos = s.ns.dot(es.wi);
         if cos > 0.0 && s.ng.dot(es.wi) > 0.0 {
-            let f = brdf.eval(wo, es.wi, s.ns);
+            let (f, brdf_pdf) = brdf.eval_and_pdf(wo, es.wi, s.ns);
             if f != Vec3::ZERO && es.radiance != Vec3::ZERO {
-                let w = power_heuristic(es.pdf, brdf.pdf(wo, es.wi, s.ns));
+                let w = power_heuristic(es.pdf, brdf_pdf);
                 terms[0] = Some((f * es.radiance * (cos * w / es.pdf), es.wi));
             }
         }
@@ -177,9 +177,9 @@ pub fn environment_terms(
     if let Some(b) = brdf.sample(wo, s.ns, u_lobe, u_brdf) {
         let cos = s.ns.dot(b.wi);
         if cos > 0.0 && s.ng.dot(b.wi) > 0.0 && b.f != Vec3::ZERO {
-            let radiance = env.radiance(b.wi);
+            let (radiance, env_pdf) = env.radiance_and_pdf(b.wi);
             if radiance != Vec3::ZERO {
-                let w = power_heuristic(b.pdf, env.pdf(b.wi));
+                let w = power_heuristic(b.pdf, env_pdf);
                 terms[1] = Some((b.f * radiance * (cos * w / b.pdf), b.wi));
             }
         }

@@ -148,6 +148,26 @@ impl Brdf {
         f
     }
 
+    /// `(eval, pdf)` with the glossy lobe computed once: the same numbers as the two calls.
+    #[inline]
+    pub fn eval_and_pdf(&self, wo: Vec3, wi: Vec3, n: Vec3) -> (Vec3, f32) {
+        let cos_i = n.dot(wi);
+        if cos_i <= 0.0 || n.dot(wo) <= 0.0 {
+            return (Vec3::ZERO, 0.0);
+        }
+        let ps = self.specular_probability();
+        let lobe = if self.ks != Vec3::ZERO || ps > 0.0 { self.lobe(wo, wi, n) } else { (0.0, 0.0) };
+        let mut f = self.kd * (1.0 / PI);
+        if self.ks != Vec3::ZERO {
+            f += self.ks * lobe.0;
+        }
+        let mut pdf = (1.0 - ps) * cos_i / PI;
+        if ps > 0.0 {
+            pdf += ps * lobe.1;
+        }
+        (f, pdf)
+    }
+
     /// The glossy part of f(wo, wi) alone (f minus kd/pi).
     pub fn eval_specular(&self, wo: Vec3, wi: Vec3, n: Vec3) -> Vec3 {
         if self.ks == Vec3::ZERO || n.dot(wi) <= 0.0 || n.dot(wo) <= 0.0 {
@@ -212,11 +232,11 @@ impl Brdf {
             to_world(n, cosine_hemisphere(u))
         };
         let wi = wi.normalize_or_zero();
-        let pdf = self.pdf(wo, wi, n);
+        let (f, pdf) = self.eval_and_pdf(wo, wi, n);
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
         }
-        Some(BrdfSample { wi, f: self.eval(wo, wi, n), pdf })
+        Some(BrdfSample { wi, f, pdf })
     }
 }
 

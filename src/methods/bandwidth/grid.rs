@@ -110,6 +110,31 @@ impl Upsampling {
             .collect()
     }
 
+    /// How much each pixel's own value counts in the image: `I_p = 1 + sum over children c of
+    /// (w_pc / W_c)^2 I_c`, over the pixels that take values from parents (`has_value` false),
+    /// `W_c` the sum of their parents' weights. An independent error of variance `v` in pixel
+    /// p's value adds `I_p v` to the summed squared error of the image (exactly where a child's
+    /// parents share no ancestor; shared ancestors add cross terms, which this leaves out).
+    /// Computed fine to coarse, so every child is final before its parents read it.
+    pub fn influence(&self, has_value: &[bool]) -> Vec<f64> {
+        let mut influence = vec![1.0f64; self.weights.len()];
+        for &i in self.order.iter().rev() {
+            if has_value[i] {
+                continue;
+            }
+            let Some(ws) = &self.weights[i] else { continue };
+            let total: f64 = ws.iter().map(|&(_, w)| w).sum();
+            if !(total > 0.0) {
+                continue;
+            }
+            let own = influence[i];
+            for &(j, w) in ws {
+                influence[j] += (w / total).powi(2) * own;
+            }
+        }
+        influence
+    }
+
     /// Every pixel's value, coarse to fine: its own where it has one, else its parents'
     /// weighted by `weights` (renormalised over the parents that have a value); `None` where
     /// neither exists.
@@ -140,6 +165,65 @@ impl Upsampling {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The nested grids of a `size` x `size` image of one flat surface: every pixel below the
+    /// coarsest grid takes its bilinear parents.
+    fn flat_grids(size: u32, coarsest: i32) -> Upsampling {
+        let weights = (0..size * size)
+            .map(|i| {
+                let (x, y) = (i % size, i / size);
+                let level = grid_level(x, y, coarsest);
+                (level < coarsest)
+                    .then(|| parents(x, y, level, size, size).into_iter().map(|(j, _, a)| (j, a)).collect())
+            })
+            .collect();
+        let mut order: Vec<usize> = (0..(size * size) as usize).collect();
+        order.sort_by_key(|&i| std::cmp::Reverse(grid_level(i as u32 % size, i as u32 / size, coarsest)));
+        Upsampling { width: size, height: size, coarsest, weights, order }
+    }
+
+    /// The summed squared coefficient with which each valued pixel reaches the image, by
+    /// resolving one unit impulse at a time: the oracle for `influence`.
+    fn influence_by_impulses(up: &Upsampling, has_value: &[bool]) -> Vec<f64> {
+        (0..has_value.len())
+            .map(|p| {
+                if !has_value[p] {
+                    return 1.0;
+                }
+                let own: Vec<Option<[f64; 3]>> = (0..has_value.len())
+                    .map(|i| has_value[i].then_some([if i == p { 1.0 } else { 0.0 }, 0.0, 0.0]))
+                    .collect();
+                up.resolve(&own).iter().map(|v| v.map_or(0.0, |v| v[0] * v[0])).sum()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn influence_is_the_squared_weight_a_value_reaches_the_image_with() {
+        let (size, coarsest) = (16u32, 4);
+        let up = flat_grids(size, coarsest);
+        let level = |i: usize| grid_level(i as u32 % size, i as u32 / size, coarsest);
+        // Every child's parents are valued: no shared ancestors, the recursion is exact.
+        let one_step: Vec<bool> = (0..(size * size) as usize).map(|i| level(i) >= 1).collect();
+        let (fast, oracle) = (up.influence(&one_step), influence_by_impulses(&up, &one_step));
+        for i in 0..fast.len() {
+            assert!((fast[i] - oracle[i]).abs() < 1e-12, "pixel {i}: {} vs {}", fast[i], oracle[i]);
+        }
+        // A centre child of four parents passes each 1/16, an edge child of two 1/4: a parent
+        // inside the image with its 8 level-0 neighbours (4 edge, 4 centre children) gets
+        // 1 + 4/4 + 4/16 = 2.25.
+        let inner = (6 * size + 6) as usize;
+        assert!((fast[inner] - 2.25).abs() < 1e-12, "{}", fast[inner]);
+        // Deeper chains: children share ancestors, whose cross terms the recursion leaves
+        // out, so it stays at or below the oracle; still, each valued pixel stands for several.
+        let deep: Vec<bool> = (0..(size * size) as usize).map(|i| level(i) >= 3).collect();
+        let (fast, oracle) = (up.influence(&deep), influence_by_impulses(&up, &deep));
+        for i in (0..fast.len()).filter(|&i| deep[i]) {
+            assert!(fast[i] >= 1.0 && fast[i] <= oracle[i] + 1e-12, "pixel {i}: {} vs {}", fast[i], oracle[i]);
+        }
+        let valued: f64 = (0..fast.len()).filter(|&i| deep[i]).map(|i| fast[i]).sum();
+        assert!(valued > deep.iter().filter(|&&d| d).count() as f64 * 4.0, "{valued}");
+    }
 
     #[test]
     fn grid_levels_nest_and_parents_sit_on_the_next_grid() {

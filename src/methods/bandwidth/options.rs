@@ -53,6 +53,13 @@ pub struct BandwidthOptions {
     /// of a shaded pixel, shared out by the variance bound (Eq. 8); `N_tot` of Sec. 2.3 is
     /// this times the shaded samples of the pass.
     pub lookups_per_sample: f64,
+    /// Multiply a shaded sample's lookups by the square root of its pixel's influence (the
+    /// summed squared weight with which its `S_hat` reaches the pixels that take it,
+    /// `grid::Upsampling::influence`), a departure: Eq. 8 shares the budget as if every shaded
+    /// point were one pixel, but a parent's noise reaches all its children, and minimising the
+    /// image's summed error `sum I_p V_p / N_p` for a given cost `sum N_p` gives
+    /// `N_p ~ sqrt(I_p V_p)`. At full resolution every influence is 1 and nothing changes.
+    pub lookups_by_influence: bool,
     /// No shaded sample gets more lookups than this.
     pub max_lookups: u32,
     /// Levels every pass lowers all levels by, so that the render reaches full resolution
@@ -81,6 +88,7 @@ impl Default for BandwidthOptions {
             texels_per_square: 2,
             antialiasing: false,
             lookups_per_sample: 4.0,
+            lookups_by_influence: true,
             max_lookups: 256,
             level_step: 1,
             upsample: UpsampleOptions::default(),

@@ -147,6 +147,12 @@ impl BandwidthShading {
             v[(y as usize >> level) * bw + (x as usize >> level)]
         };
         let variances: Vec<f64> = (0..w * h).map(|i| if shaded[i] { block_variance(i) } else { 0.0 }).collect();
+        let influence = if opts.lookups_by_influence {
+            let has_value: Vec<bool> = shaded.iter().zip(&self.pixels).map(|(&s, px)| s || px.n_shaded > 0).collect();
+            up.influence(&has_value)
+        } else {
+            vec![1.0; w * h]
+        };
         let count = shaded.iter().filter(|&&s| s).count().max(1) as f64;
         let mean = variances.iter().filter(|v| v.is_finite()).sum::<f64>() / count;
         let max_lookups = opts.max_lookups.clamp(1, MAX_LOOKUPS);
@@ -165,7 +171,8 @@ impl BandwidthShading {
                         opts.lookups_per_sample
                     };
                     // Never below the mean: a shaded pixel's noise is every upsampled child's.
-                    (share.max(opts.lookups_per_sample).round() as u32).clamp(1, max_lookups)
+                    let share = share.max(opts.lookups_per_sample) * influence[i].sqrt();
+                    (share.min(max_lookups as f64).round() as u32).clamp(1, max_lookups)
                 };
                 PixelPlan { samples: k.saturating_mul(factor), lookups }
             })

@@ -179,6 +179,33 @@ fn texels_sit_where_mitsuba_puts_them() {
 }
 
 #[test]
+fn the_lookup_equals_floor_and_wrapping_everywhere() {
+    // The lookup avoids floor() and rem_euclid on interior texels; its results are those of
+    // the plain formula at every u, wrapped or not, in and out of [0, 1).
+    let (w, h) = (7usize, 5usize);
+    let texels: Vec<Vec3> = (0..w * h).map(|i| Vec3::new(i as f32, (i * i % 11) as f32, 1.0)).collect();
+    let map = LatLongMap::new(w, h, texels.clone());
+    let plain = |uv: [f32; 2]| {
+        let x = uv[0] * w as f32 - 0.5;
+        let y = (uv[1] * (h - 1) as f32).clamp(0.0, (h - 1) as f32);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let col = |i: i64| i.rem_euclid(w as i64) as usize;
+        let (c0, c1) = (col(x0 as i64), col(x0 as i64 + 1));
+        let (r0, r1) = (y0 as usize, (y0 as usize + 1).min(h - 1));
+        let at = |r: usize, c: usize| texels[r * w + c];
+        (at(r0, c0) * (1.0 - fx) + at(r0, c1) * fx) * (1.0 - fy) + (at(r1, c0) * (1.0 - fx) + at(r1, c1) * fx) * fy
+    };
+    let mut us: Vec<f32> = (0..=700).map(|k| k as f32 / 700.0).collect();
+    us.extend([-0.3, -1.0 / 14.0, 1.0 / 14.0, 13.0 / 14.0, 1.0 - f32::EPSILON, 1.0, 1.2, 2.5]);
+    for &u in &us {
+        for v in [0.0, 0.3, 0.5, 0.99, 1.0] {
+            assert_eq!(map.lookup([u, v]), plain([u, v]), "uv ({u}, {v})");
+        }
+    }
+}
+
+#[test]
 fn the_mean_radiance_weights_texels_by_solid_angle() {
     // Top row 0, bottom row 1 (a 2-row map): the mean over the sphere is 1/2 by symmetry.
     let map = LatLongMap::new(3, 2, vec![Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ONE, Vec3::ONE, Vec3::ONE]);
