@@ -180,61 +180,176 @@ pub fn analyse(scene: &Scene, view: &Camera, g: &GBuffer, opts: &BandwidthOption
     let (fov_x, fov_y) = view.fields_of_view();
     let stream = crate::render::sampler::hash_words(&[seed, STREAM]);
 
-    let per_pixel: Vec<(f32, i32, f64)> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let (x, y) = (i as u32 % w, i as u32 / w);
-            let p: &GSample = &g.pixels[i];
-            if !p.is_valid() || p.emitter {
-                let level = if footprint_edge(g, x, y) { 0.max(finest) } else { coarsest };
-                return (0.0, level, 0.0);
-            }
-            let brdf = scene.materials[p.material as usize].brdf(p.uv);
-            let table = tables.get(&brdf_key(&brdf));
-            let wo = (view.position - p.position).normalize_or_zero();
-            let cos_x = p.normal.dot(wo) as f64;
-            let rate = uv_rate(g, x, y);
-            let texture = textures[p.material as usize].iter().map(|t| t.at(p.uv)).fold(0.0f64, f64::max) * rate;
-            let mut sampler = PixelSampler::new(stream, i as u32, 0);
-            let mut directions = Vec::with_capacity(opts.light_samples as usize);
-            for _ in 0..opts.light_samples.max(1) {
-                let Some(es) = env.sample(sampler.next_2d()) else { continue };
-                let cos_i = p.normal.dot(es.wi) as f64;
-                let f = if cos_i > 0.0 { brdf.eval(wo, es.wi, p.normal) } else { Vec3::ZERO };
-                let light_a = env_band.at(es.wi);
-                let brdf_a = table.map_or(0.0, |t| t.at(es.wi, wo, p.normal));
-                let r = Reflection {
-                    cos_i: cos_i.max(0.0),
-                    cos_x,
-                    curvature: curv[i],
-                    texture,
-                    brdf: brdf_a,
-                    clip: opts.brdf_clip,
-                };
-                directions.push(DirectionBand {
-                    nu: one_bounce(light_a, &r, p.depth as f64, opts.propagation),
-                    light_a,
-                    brdf_a,
-                    radiance: luminance(es.radiance),
-                    chi: luminance(es.radiance * f),
-                    cos: cos_i,
-                    inv_pdf: 1.0 / es.pdf as f64,
-                });
-            }
-            let (nu, variance) = pixel_bandwidth(&directions, opts.normalised);
-            // Eq. 5 in radians per pixel (the wavelets' unit), and in cycles per pixel.
-            let b_rad = image_bandwidth(nu.a, fov_x, fov_y, w, h);
-            let b_p = b_rad / (2.0 * std::f64::consts::PI);
-            let mut level = shading_level(if opts.nyquist { 2.0 * b_p } else { b_rad }, w, h, finest);
-            if footprint_edge(g, x, y) {
-                level = level.min(0);
-            }
-            (b_p as f32, level, if variance.is_finite() { variance } else { f64::MAX })
-        })
-        .collect();
+    let analyse_pixel = |i: usize| -> (f32, i32, f64) {
+        let (x, y) = (i as u32 % w, i as u32 / w);
+        let p: &GSample = &g.pixels[i];
+        if !p.is_valid() || p.emitter {
+            let level = if footprint_edge(g, x, y) { 0.max(finest) } else { coarsest };
+            return (0.0, level, 0.0);
+        }
+        let brdf = scene.materials[p.material as usize].brdf(p.uv);
+        let table = tables.get(&brdf_key(&brdf));
+        let wo = (view.position - p.position).normalize_or_zero();
+        let cos_x = p.normal.dot(wo) as f64;
+        let rate = uv_rate(g, x, y);
+        let texture = textures[p.material as usize].iter().map(|t| t.at(p.uv)).fold(0.0f64, f64::max) * rate;
+        let mut sampler = PixelSampler::new(stream, i as u32, 0);
+        let mut directions = Vec::with_capacity(opts.light_samples as usize);
+        for _ in 0..opts.light_samples.max(1) {
+            let Some(es) = env.sample(sampler.next_2d()) else { continue };
+            let cos_i = p.normal.dot(es.wi) as f64;
+            let f = if cos_i > 0.0 { brdf.eval(wo, es.wi, p.normal) } else { Vec3::ZERO };
+            let light_a = env_band.at(es.wi);
+            let brdf_a = table.map_or(0.0, |t| t.at(es.wi, wo, p.normal));
+            let r = Reflection {
+                cos_i: cos_i.max(0.0),
+                cos_x,
+                curvature: curv[i],
+                texture,
+                brdf: brdf_a,
+                clip: opts.brdf_clip,
+            };
+            directions.push(DirectionBand {
+                nu: one_bounce(light_a, &r, p.depth as f64, opts.propagation),
+                light_a,
+                brdf_a,
+                radiance: luminance(es.radiance),
+                chi: luminance(es.radiance * f),
+                cos: cos_i,
+                inv_pdf: 1.0 / es.pdf as f64,
+            });
+        }
+        let (nu, variance) = pixel_bandwidth(&directions, opts.normalised);
+        // Eq. 5 in radians per pixel (the wavelets' unit), and in cycles per pixel.
+        let b_rad = image_bandwidth(nu.a, fov_x, fov_y, w, h);
+        let b_p = b_rad / (2.0 * std::f64::consts::PI);
+        let mut level = shading_level(if opts.nyquist { 2.0 * b_p } else { b_rad }, w, h, finest);
+        if footprint_edge(g, x, y) {
+            level = level.min(0);
+        }
+        (b_p as f32, level, if variance.is_finite() { variance } else { f64::MAX })
+    };
+    let per_pixel: Vec<(f32, i32, f64)> = if opts.coarse_analysis {
+        coarse_then_fine(g, analyse_pixel)
+    } else {
+        (0..n).into_par_iter().map(analyse_pixel).collect()
+    };
     Analysis {
         bandwidth: per_pixel.iter().map(|t| t.0).collect(),
         level: per_pixel.iter().map(|t| t.1).collect(),
         variance: per_pixel.iter().map(|t| t.2).collect(),
+    }
+}
+
+/// Pixels whose every neighbour on grid 1 asks for a spacing of at least this many levels take
+/// their neighbours' results instead of analysing their own (`coarse_analysis`).
+const COARSE_MIN_LEVEL: i32 = 3;
+
+/// The analysis of `coarse_analysis`: first the pixels of grid 1 (x and y even), then every
+/// other pixel from its (up to four) diagonal, horizontal or vertical neighbours on that grid:
+/// it is analysed itself when its footprint holds an edge, when a neighbour is missing, lies on
+/// another surface or in the background, or asks for a level below `COARSE_MIN_LEVEL`;
+/// otherwise it takes their largest bandwidth, finest level and largest variance (the
+/// conservative choice each quantity's use asks for).
+fn coarse_then_fine(g: &GBuffer, analyse_pixel: impl Fn(usize) -> (f32, i32, f64) + Sync) -> Vec<(f32, i32, f64)> {
+    let (w, h) = (g.width as usize, g.height as usize);
+    let on_grid = |i: usize| (i % w) % 2 == 0 && (i / w) % 2 == 0;
+    let first: Vec<Option<(f32, i32, f64)>> =
+        (0..w * h).into_par_iter().map(|i| on_grid(i).then(|| analyse_pixel(i))).collect();
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            if let Some(r) = first[i] {
+                return r;
+            }
+            let (x, y) = (i % w, i / w);
+            let p = &g.pixels[i];
+            let xs: &[usize] = if x % 2 == 0 { &[x] } else { &[x - 1, x + 1] };
+            let ys: &[usize] = if y % 2 == 0 { &[y] } else { &[y - 1, y + 1] };
+            let mut merged = (0.0f32, i32::MAX, 0.0f64);
+            for &ny in ys {
+                for &nx in xs {
+                    if nx >= w || ny >= h || !p.is_valid() || p.emitter {
+                        return analyse_pixel(i);
+                    }
+                    let j = ny * w + nx;
+                    let q = &g.pixels[j];
+                    let same = q.object == p.object && q.kd == p.kd && q.ks == p.ks && q.exponent == p.exponent;
+                    let Some(r) = first[j].filter(|r| same && r.1 >= COARSE_MIN_LEVEL) else {
+                        return analyse_pixel(i);
+                    };
+                    merged = (merged.0.max(r.0), merged.1.min(r.1), merged.2.max(r.2));
+                }
+            }
+            if footprint_edge(g, x as u32, y as u32) {
+                return analyse_pixel(i);
+            }
+            merged
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    /// A `w` x `h` G-buffer of one flat surface, object 1 left of `split_x` and 2 from it on.
+    fn two_surfaces(w: u32, h: u32, split_x: u32) -> GBuffer {
+        let pixels = (0..w * h)
+            .map(|i| GSample {
+                object: if i % w < split_x { 1 } else { 2 },
+                material: 0,
+                depth: 1.0,
+                normal: Vec3::Z,
+                ..GSample::BACKGROUND
+            })
+            .collect();
+        GBuffer { width: w, height: h, pixels }
+    }
+
+    #[test]
+    fn the_coarse_analysis_skips_smooth_pixels_only() {
+        let (w, h) = (32u32, 24u32);
+        let g = two_surfaces(w, h, 20);
+        // Level 5 everywhere but a fine patch (level 0) around (8, 8); the bandwidth and the
+        // variance say where they came from.
+        let level_at = |x: u32, y: u32| if x.abs_diff(8) <= 1 && y.abs_diff(8) <= 1 { 0 } else { 5 };
+        let calls = AtomicUsize::new(0);
+        let analyse_pixel = |i: usize| {
+            calls.fetch_add(1, Ordering::Relaxed);
+            let (x, y) = (i as u32 % w, i as u32 / w);
+            (x as f32, level_at(x, y), y as f64)
+        };
+        let got = coarse_then_fine(&g, analyse_pixel);
+        let calls = calls.into_inner();
+        let own = |i: usize| ((i as u32 % w) as f32, level_at(i as u32 % w, i as u32 / w), (i as u32 / w) as f64);
+        for (i, r) in got.iter().enumerate() {
+            let (x, y) = (i as u32 % w, i as u32 / w);
+            let on_grid = x % 2 == 0 && y % 2 == 0;
+            // Pixels with a grid-1 neighbour in the patch: the patch itself.
+            let near_patch = x.abs_diff(8) <= 1 && y.abs_diff(8) <= 1;
+            // Either side of the objects' edge, and the last column and row (a neighbour
+            // missing).
+            let near_edge = x == 19 || x == 20 || x + 1 >= w || y + 1 >= h;
+            if on_grid || near_patch || near_edge {
+                // Analysed itself: its own result.
+                assert_eq!(*r, own(i), "({x}, {y})");
+            } else {
+                // From its grid-1 neighbours: largest bandwidth, finest level, largest variance.
+                let nx = if x % 2 == 0 { x } else { x + 1 };
+                let ny = if y % 2 == 0 { y } else { y + 1 };
+                assert_eq!(*r, (nx as f32, 5, ny as f64), "({x}, {y})");
+            }
+        }
+        // The fine patch is never missed: every pixel inside it has level 0.
+        for y in 7..=9u32 {
+            for x in 7..=9u32 {
+                assert_eq!(got[(y * w + x) as usize].1, 0);
+            }
+        }
+        // A quarter of the pixels, the edge's and the image border's columns and rows, and the
+        // patch's surroundings: well under half the pixels.
+        assert!(calls < (w * h) as usize / 2, "{calls} of {}", w * h);
     }
 }

@@ -49,6 +49,12 @@ pub struct BandwidthOptions {
     /// camera samples over the pixel anyway, so the levels only move samples to those pixels,
     /// and at equal time that cost more error elsewhere than it saved (BENCHMARKS.md).
     pub antialiasing: bool,
+    /// Analyse the pixels of grid 1 (every second pixel along x and y) first, and the others
+    /// only where their neighbours there ask for a spacing under 8 pixels or an edge is near;
+    /// elsewhere a pixel takes its neighbours' results (`analysis::coarse_then_fine`). A
+    /// departure (the paper analyses every pixel): in smooth regions three pixels in four skip
+    /// the 16 light directions of Eq. 4.
+    pub coarse_analysis: bool,
     /// Mean lookups (pairs of light- and BRDF-sampled directions, no rays) per camera sample
     /// of a shaded pixel, shared out by the variance bound (Eq. 8); `N_tot` of Sec. 2.3 is
     /// this times the shaded samples of the pass.
@@ -87,6 +93,7 @@ impl Default for BandwidthOptions {
             texture_wavelets: WaveletOptions { basis: Basis::Amplitude, ..WaveletOptions::default() },
             texels_per_square: 2,
             antialiasing: false,
+            coarse_analysis: true,
             lookups_per_sample: 4.0,
             lookups_by_influence: true,
             max_lookups: 256,
