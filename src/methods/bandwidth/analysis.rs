@@ -253,7 +253,7 @@ const COARSE_MIN_LEVEL: i32 = 3;
 /// conservative choice each quantity's use asks for).
 fn coarse_then_fine(g: &GBuffer, analyse_pixel: impl Fn(usize) -> (f32, i32, f64) + Sync) -> Vec<(f32, i32, f64)> {
     let (w, h) = (g.width as usize, g.height as usize);
-    let on_grid = |i: usize| (i % w) % 2 == 0 && (i / w) % 2 == 0;
+    let on_grid = |i: usize| (i % w).is_multiple_of(2) && (i / w).is_multiple_of(2);
     let first: Vec<Option<(f32, i32, f64)>> =
         (0..w * h).into_par_iter().map(|i| on_grid(i).then(|| analyse_pixel(i))).collect();
     (0..w * h)
