@@ -5,6 +5,7 @@ use super::wavelet::{scale_exponents, Basis, Filter, Reference, EPSILON};
 use crate::render::environment::{direction_to_uv, EnvironmentLight, EnvironmentRadiance, LatLongMap};
 use glam::{Mat3, Vec3};
 use std::f64::consts::PI;
+use std::sync::{Arc, Mutex, Weak};
 
 /// How the wavelet estimates are taken (shared by maps, lobes and textures).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -46,15 +47,79 @@ pub fn angular(h: Option<u32>, radians: f64) -> f64 {
 #[derive(Clone, Debug)]
 pub struct EnvironmentBandwidth {
     /// Per texel of the light's map (None: a constant, bandwidth 0 everywhere).
-    map: Option<(usize, usize, Vec<f32>)>,
+    map: Option<(usize, usize, Arc<Vec<f32>>)>,
     to_map: Mat3,
+}
+
+/// A map's bandwidths computed in this process. The map is held weakly (the scenes that use it
+/// own it); a weak reference keeps the allocation, so no other map can take its address while
+/// the entry lives.
+struct CachedMap {
+    map: Weak<LatLongMap>,
+    options: WaveletOptions,
+    bandwidth: Arc<Vec<f32>>,
+}
+
+/// Maps' bandwidths by map and options, at most `capacity` of them (the oldest goes first).
+struct MapCache {
+    entries: Vec<CachedMap>,
+    capacity: usize,
+}
+
+impl MapCache {
+    const fn new(capacity: usize) -> Self {
+        MapCache { entries: Vec::new(), capacity }
+    }
+
+    fn get(&mut self, map: &Arc<LatLongMap>, opts: &WaveletOptions) -> Option<Arc<Vec<f32>>> {
+        // Maps no scene holds any more can never be asked for again.
+        self.entries.retain(|c| c.map.strong_count() > 0);
+        let same = |c: &&CachedMap| c.options == *opts && std::ptr::eq(c.map.as_ptr(), Arc::as_ptr(map));
+        self.entries.iter().find(same).map(|c| c.bandwidth.clone())
+    }
+
+    fn insert(&mut self, map: &Arc<LatLongMap>, opts: &WaveletOptions, bandwidth: Arc<Vec<f32>>) {
+        if self.entries.len() >= self.capacity.max(1) {
+            self.entries.remove(0);
+        }
+        self.entries.push(CachedMap { map: Arc::downgrade(map), options: *opts, bandwidth });
+    }
+
+    fn get_or_compute(&mut self, map: &Arc<LatLongMap>, opts: &WaveletOptions) -> Arc<Vec<f32>> {
+        self.get(map, opts).unwrap_or_else(|| {
+            let bandwidth = Arc::new(map_bandwidth(map, opts));
+            self.insert(map, opts, bandwidth.clone());
+            bandwidth
+        })
+    }
+}
+
+/// Maps whose bandwidths the process keeps at most.
+pub const MAX_CACHED_MAPS: usize = 4;
+
+/// The process's maps' bandwidths: the wavelet transform of a large map takes tens of
+/// milliseconds, and a server renders the same scene's light again and again (every new view
+/// of an editing session). The map's rotation and scale do not enter (`map_bandwidth`).
+static MAPS: Mutex<MapCache> = Mutex::new(MapCache::new(MAX_CACHED_MAPS));
+
+/// `map_bandwidth` of `map`, from the process's cache or computed (outside the lock, so that
+/// renders of other maps do not wait).
+fn cached_map_bandwidth(map: &Arc<LatLongMap>, opts: &WaveletOptions) -> Arc<Vec<f32>> {
+    if let Some(bandwidth) = MAPS.lock().ok().and_then(|mut c| c.get(map, opts)) {
+        return bandwidth;
+    }
+    let bandwidth = Arc::new(map_bandwidth(map, opts));
+    if let Ok(mut cache) = MAPS.lock() {
+        cache.insert(map, opts, bandwidth.clone());
+    }
+    bandwidth
 }
 
 impl EnvironmentBandwidth {
     pub fn new(env: &EnvironmentLight, opts: &WaveletOptions) -> Self {
         let map = match &env.radiance {
             EnvironmentRadiance::Constant(_) => None,
-            EnvironmentRadiance::Map(m) => Some((m.width(), m.height(), map_bandwidth(m, opts))),
+            EnvironmentRadiance::Map(m) => Some((m.width(), m.height(), cached_map_bandwidth(m, opts))),
         };
         EnvironmentBandwidth { map, to_map: env.to_map }
     }
@@ -95,7 +160,6 @@ pub fn map_bandwidth(map: &LatLongMap, opts: &WaveletOptions) -> Vec<f32> {
 mod tests {
     use super::*;
     use crate::render::sky::Sky;
-    use std::sync::Arc;
 
     fn light(map: LatLongMap) -> EnvironmentLight {
         EnvironmentLight::new(EnvironmentRadiance::Map(Arc::new(map)), 1.0, Vec3::Y, 0.0)
@@ -138,6 +202,32 @@ mod tests {
         assert!(straight.at(Vec3::X) > 3.5 * straight.at(Vec3::NEG_X));
         // Turned 90 degrees counter-clockwise seen from above, +X goes to -Z.
         assert!((turned.at(Vec3::NEG_Z) - straight.at(Vec3::X)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_maps_bandwidths_are_computed_once_per_map_and_options() {
+        let opts = WaveletOptions::default();
+        let mut cache = MapCache::new(2);
+        let map = Arc::new(Sky::default().bake(64));
+        let first = cache.get_or_compute(&map, &opts);
+        assert_eq!(*first, map_bandwidth(&map, &opts));
+        // The same map again (another light, another rotation): the same numbers, not recomputed.
+        assert!(Arc::ptr_eq(&first, &cache.get_or_compute(&map, &opts)));
+        // An equal copy is another map, other options another estimate.
+        let copy = Arc::new((*map).clone());
+        let again = cache.get_or_compute(&copy, &opts);
+        assert!(!Arc::ptr_eq(&first, &again) && *first == *again);
+        // Once no scene holds a map, its entry goes at the next lookup.
+        drop(copy);
+        assert!(cache.get(&map, &opts).is_some());
+        assert_eq!(cache.entries.len(), 1);
+        // Past the capacity the oldest entry goes.
+        let d4 = WaveletOptions { filter: Filter::D4, ..opts };
+        let db4_again = WaveletOptions { eps: 0.02, ..opts };
+        assert_eq!(*cache.get_or_compute(&map, &d4), map_bandwidth(&map, &d4));
+        let _ = cache.get_or_compute(&map, &db4_again);
+        assert_eq!(cache.entries.len(), 2);
+        assert!(cache.get(&map, &opts).is_none() && cache.get(&map, &d4).is_some());
     }
 
     #[test]
