@@ -85,6 +85,8 @@ impl MapCache {
         self.entries.push(CachedMap { map: Arc::downgrade(map), options: *opts, bandwidth });
     }
 
+    /// What `cached_map_bandwidth` does with the process's cache, for one owner.
+    #[cfg(test)]
     fn get_or_compute(&mut self, map: &Arc<LatLongMap>, opts: &WaveletOptions) -> Arc<Vec<f32>> {
         self.get(map, opts).unwrap_or_else(|| {
             let bandwidth = Arc::new(map_bandwidth(map, opts));
