@@ -12,6 +12,7 @@
 //! coefficients are measured in decides what "negligible" means (`Basis`). The paper's filter,
 //! "Daubechies of order 4", is ambiguous: `Filter::Db4` (8 taps, the default: it leaks less
 //! into finer levels) or `Filter::D4` (4 taps); methods.md §4.1.
+use rayon::prelude::*;
 
 /// The Daubechies low-pass filter (orthonormal: taps sum to sqrt 2).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -121,13 +122,14 @@ pub fn scale_exponents(
     assert!(w > 0 && h > 0 && image.len() == w * h);
     let taps = filter.taps();
     let reach = taps.len() / 2;
-    // lambda[j - 1][texel]: the level-j coefficient bound covering each texel.
-    let mut lambda: Vec<Vec<f64>> = Vec::new();
+    // levels[j - 1]: the level-j coefficient bounds, one per block, and which block covers
+    // each texel's column and row.
+    let mut levels: Vec<LevelBounds> = Vec::new();
     let (mut a, mut aw, mut ah) = (image.to_vec(), w, h);
     // The transform's coefficients are orthonormal; `basis` rescales them by 2^(-i/2) or
     // 2^(i/2) per axis halved.
     let mut normalisation = 1.0f64;
-    while (aw >= 2 || ah >= 2) && lambda.len() < 24 {
+    while (aw >= 2 || ah >= 2) && levels.len() < 24 {
         // Rows, then columns; an axis already down to one sample is left as it is.
         let (lo, hi, bw, bh) =
             if aw >= 2 { split(&a, aw, ah, true, taps) } else { (a.clone(), vec![0.0; a.len()], aw, ah) };
@@ -165,37 +167,52 @@ pub fn scale_exponents(
         // Texel (x, y) lies in block (x >> j, y >> j) of a level that halved both axes; an
         // axis not halved keeps its index.
         let (sx, sy) = (w.div_ceil(cw), h.div_ceil(ch));
-        lambda
-            .push((0..w * h).map(|i| covered[((i / w) / sy).min(ch - 1) * cw + ((i % w) / sx).min(cw - 1)]).collect());
+        let column = (0..w).map(|x| (x / sx).min(cw - 1)).collect();
+        let row = (0..h).map(|y| (y / sy).min(ch - 1) * cw).collect();
+        levels.push(LevelBounds { covered, column, row });
         (a, aw, ah) = (ll, cw, ch);
     }
-    let global = lambda.iter().flatten().fold(0.0f64, |m, &v| m.max(v));
+    // The largest bound any texel sees (blocks no texel maps to do not count).
+    let global = levels.iter().fold(0.0f64, |m, l| {
+        l.row.iter().flat_map(|&r| l.column.iter().map(move |&c| r + c)).fold(m, |m, b| m.max(l.covered[b]))
+    });
     // Coefficients at rounding level of the image's values are no detail (a constant
     // transforms to about 1e-16 of itself, not to 0).
     let floor = 1e-9 * image.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    (0..w * h)
-        .map(|i| {
+    let mut out = vec![None; w * h];
+    out.par_chunks_mut(w).enumerate().for_each(|(y, line)| {
+        for (x, texel) in line.iter_mut().enumerate() {
+            let bound = |l: &LevelBounds| l.covered[l.row[y] + l.column[x]];
             let reference = match reference {
-                Reference::Local => lambda.iter().fold(0.0f64, |m, l| m.max(l[i])),
+                Reference::Local => levels.iter().fold(0.0f64, |m, l| m.max(bound(l))),
                 Reference::Global => global,
             };
             if !(reference > floor) {
-                return None;
+                continue;
             }
             // The coarsest h with levels 1..=h below eps of the reference.
             let mut tail = 0.0;
             let mut h = 0;
-            for (j, l) in lambda.iter().enumerate() {
-                tail += l[i];
+            for (j, l) in levels.iter().enumerate() {
+                tail += bound(l);
                 if tail < eps * reference {
                     h = j as u32 + 1;
                 } else {
                     break;
                 }
             }
-            Some(h)
-        })
-        .collect()
+            *texel = Some(h);
+        }
+    });
+    out
+}
+
+/// One level's coefficient bounds per block, and the block of each texel: `covered[row[y] +
+/// column[x]]` for texel (x, y).
+struct LevelBounds {
+    covered: Vec<f64>,
+    column: Vec<usize>,
+    row: Vec<usize>,
 }
 
 #[cfg(test)]
