@@ -162,10 +162,15 @@ pub fn sweep(job: &RenderJob, reference: &Frame, keep: &[bool]) -> (Vec<Point>, 
 /// Where the baseline curve reaches `error`, by linear interpolation of log(x) against
 /// log(error) between the two baseline points that bracket it; `None` outside its range.
 pub fn at_error(base: &[Point], error: f64, x: impl Fn(&Point) -> f64) -> Option<f64> {
+    at_metric(base, error, |q| q.rmse, x)
+}
+
+/// `at_error` on another error measure: the baseline's `x` where its `metric` equals `value`.
+pub fn at_metric(base: &[Point], value: f64, metric: impl Fn(&Point) -> f64, x: impl Fn(&Point) -> f64) -> Option<f64> {
     base.windows(2).find_map(|w| {
         let (a, b) = (&w[0], &w[1]);
-        let (ea, eb) = (a.rmse.ln(), b.rmse.ln());
-        let e = error.ln();
+        let (ea, eb) = (metric(a).ln(), metric(b).ln());
+        let e = value.ln();
         if !((ea >= e && e >= eb) || (ea <= e && e <= eb)) || ea == eb {
             return None;
         }
@@ -180,6 +185,13 @@ pub fn speedup(base: &[Point], p: &Point) -> (Option<f64>, Option<f64>) {
         at_error(base, p.rmse, |q| q.mean_spp).map(|s| s / p.mean_spp),
         at_error(base, p.rmse, |q| q.seconds).map(|s| s / p.seconds),
     )
+}
+
+/// Equal-time speedup of `p` over the baseline curve at equal relative MSE: every pixel's
+/// error weighed by its own value, so a few bright pixels (a sun's glints) cannot carry it as
+/// they carry the RMSE.
+pub fn relative_speedup(base: &[Point], p: &Point) -> Option<f64> {
+    at_metric(base, p.rel_mse, |q| q.rel_mse, |q| q.seconds).map(|s| s / p.seconds)
 }
 
 /// Whether the error keeps falling along the curve: no step rises by more than `slack`, and
@@ -245,6 +257,13 @@ mod tests {
         assert!((s.unwrap() - 8.0).abs() < 1e-9, "{s:?}");
         assert!((t.unwrap() - 16.0).abs() < 1e-9, "{t:?}");
         assert_eq!(speedup(&base, &pt(1.0, 1.0, 1e-9)), (None, None));
+        // The same on the relative MSE (here 1/spp): the time speedup reads that measure alone.
+        let mut rel = base.clone();
+        rel.iter_mut().for_each(|q| (q.rmse, q.rel_mse) = (1.0, 1.0 / q.mean_spp));
+        let mut q = pt(4.0, 0.2, 1.0);
+        q.rel_mse = 1.0 / 32.0;
+        assert!((relative_speedup(&rel, &q).unwrap() - 16.0).abs() < 1e-9);
+        assert_eq!(relative_speedup(&rel, &pt(1.0, 1.0, 1.0)), None);
         assert!(consistent(&base, 0.0));
         // A plateau (bias taking over) is not consistent, nor is a rise.
         let plateau: Vec<Point> =

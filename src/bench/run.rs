@@ -2,7 +2,7 @@
 //! few seeds; medians per pass (RMSE, relative MSE, FLIP), equal-error speedups over uniform,
 //! consistency; written as JSON, CSV, Markdown and log-log plots (SVG and PNG), and on request
 //! each method's FLIP error map of its last frame.
-use super::convergence::{consistent, speedup, sweep, Point};
+use super::convergence::{consistent, relative_speedup, speedup, sweep, Point};
 use super::plot::{self, Series};
 use super::reference::{cached_reference, load_reference, ReferenceKey};
 use super::{machine_description, median};
@@ -219,8 +219,8 @@ pub fn markdown(results: &[SceneResult], cfg: &BenchConfig) -> String {
         if r.excluded > 0 {
             let _ = writeln!(s, "{} pixels left out of the errors.\n", r.excluded);
         }
-        let _ = writeln!(s, "| method | pass | mean spp | seconds | CPU s | method share | RMSE | rel. MSE | FLIP | speedup over uniform at equal error (samples, time) |");
-        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(s, "| method | pass | mean spp | seconds | CPU s | method share | RMSE | rel. MSE | FLIP | speedup over uniform at equal error (samples, time) | time speedup at equal rel. MSE |");
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
         let base = r.curves.iter().find(|c| c.method == Method::Uniform).map(|c| c.points.as_slice()).unwrap_or(&[]);
         for c in &r.curves {
             for p in &c.points {
@@ -228,7 +228,7 @@ pub fn markdown(results: &[SceneResult], cfg: &BenchConfig) -> String {
                 let x = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.1}x"));
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {} | {:.3} | {} | {:.1}% | {:.5} | {:.2e} | {:.4} | {}, {} |",
+                    "| {} | {} | {} | {:.3} | {} | {:.1}% | {:.5} | {:.2e} | {:.4} | {}, {} | {} |",
                     c.method.name(),
                     p.pass,
                     f_spp(p.mean_spp),
@@ -239,7 +239,8 @@ pub fn markdown(results: &[SceneResult], cfg: &BenchConfig) -> String {
                     p.rel_mse,
                     p.flip,
                     x(ss),
-                    x(ts)
+                    x(ts),
+                    x(relative_speedup(base, p))
                 );
             }
         }
@@ -281,6 +282,7 @@ pub fn write_outputs(results: &[SceneResult], cfg: &BenchConfig) -> anyhow::Resu
                     let mut v = point(p);
                     v["speedup_samples"] = json!(ss);
                     v["speedup_seconds"] = json!(ts);
+                    v["speedup_seconds_rel_mse"] = json!(relative_speedup(base, p));
                     v
                 })).collect::<Vec<_>>(),
                 "consistent": r.curves.iter().map(|c| (c.method.name().to_string(), json!(consistent(c.points.get(1..).unwrap_or(&[]), 0.02)))).collect::<serde_json::Map<_, _>>(),
