@@ -99,9 +99,9 @@ impl MapCache {
 /// Maps whose bandwidths the process keeps at most.
 pub const MAX_CACHED_MAPS: usize = 4;
 
-/// The process's maps' bandwidths: the wavelet transform of a large map takes tens of
-/// milliseconds, and a server renders the same scene's light again and again (every new view
-/// of an editing session). The map's rotation and scale do not enter (`map_bandwidth`).
+/// The process's maps' bandwidths: the wavelet transform of a large map is a sizeable part of
+/// a first frame's analysis, and a server renders the same scene's light again and again
+/// (every new view of an editing session). The map's rotation and scale do not enter (`map_bandwidth`).
 static MAPS: Mutex<MapCache> = Mutex::new(MapCache::new(MAX_CACHED_MAPS));
 
 /// `map_bandwidth` of `map`, from the process's cache or computed (outside the lock, so that
