@@ -84,16 +84,6 @@ impl MapCache {
         }
         self.entries.push(CachedMap { map: Arc::downgrade(map), options: *opts, bandwidth });
     }
-
-    /// What `cached_map_bandwidth` does with the process's cache, for one owner.
-    #[cfg(test)]
-    fn get_or_compute(&mut self, map: &Arc<LatLongMap>, opts: &WaveletOptions) -> Arc<Vec<f32>> {
-        self.get(map, opts).unwrap_or_else(|| {
-            let bandwidth = Arc::new(map_bandwidth(map, opts));
-            self.insert(map, opts, bandwidth.clone());
-            bandwidth
-        })
-    }
 }
 
 /// Maps whose bandwidths the process keeps at most.
@@ -104,15 +94,20 @@ pub const MAX_CACHED_MAPS: usize = 4;
 /// (every new view of an editing session). The map's rotation and scale do not enter (`map_bandwidth`).
 static MAPS: Mutex<MapCache> = Mutex::new(MapCache::new(MAX_CACHED_MAPS));
 
-/// `map_bandwidth` of `map`, from the process's cache or computed (outside the lock, so that
-/// renders of other maps do not wait).
+/// `map_bandwidth` of `map`, from the process's cache or computed.
 fn cached_map_bandwidth(map: &Arc<LatLongMap>, opts: &WaveletOptions) -> Arc<Vec<f32>> {
-    if let Some(bandwidth) = MAPS.lock().ok().and_then(|mut c| c.get(map, opts)) {
+    cached_in(&MAPS, map, opts)
+}
+
+/// `map_bandwidth` of `map` from `cache`, or computed (outside the lock, so that renders of
+/// other maps do not wait) and kept there.
+fn cached_in(cache: &Mutex<MapCache>, map: &Arc<LatLongMap>, opts: &WaveletOptions) -> Arc<Vec<f32>> {
+    if let Some(bandwidth) = cache.lock().ok().and_then(|mut c| c.get(map, opts)) {
         return bandwidth;
     }
     let bandwidth = Arc::new(map_bandwidth(map, opts));
-    if let Ok(mut cache) = MAPS.lock() {
-        cache.insert(map, opts, bandwidth.clone());
+    if let Ok(mut c) = cache.lock() {
+        c.insert(map, opts, bandwidth.clone());
     }
     bandwidth
 }
@@ -209,27 +204,28 @@ mod tests {
     #[test]
     fn a_maps_bandwidths_are_computed_once_per_map_and_options() {
         let opts = WaveletOptions::default();
-        let mut cache = MapCache::new(2);
+        let cache = Mutex::new(MapCache::new(2));
         let map = Arc::new(Sky::default().bake(64));
-        let first = cache.get_or_compute(&map, &opts);
+        let first = cached_in(&cache, &map, &opts);
         assert_eq!(*first, map_bandwidth(&map, &opts));
         // The same map again (another light, another rotation): the same numbers, not recomputed.
-        assert!(Arc::ptr_eq(&first, &cache.get_or_compute(&map, &opts)));
+        assert!(Arc::ptr_eq(&first, &cached_in(&cache, &map, &opts)));
         // An equal copy is another map, other options another estimate.
         let copy = Arc::new((*map).clone());
-        let again = cache.get_or_compute(&copy, &opts);
+        let again = cached_in(&cache, &copy, &opts);
         assert!(!Arc::ptr_eq(&first, &again) && *first == *again);
         // Once no scene holds a map, its entry goes at the next lookup.
         drop(copy);
-        assert!(cache.get(&map, &opts).is_some());
-        assert_eq!(cache.entries.len(), 1);
+        assert!(cache.lock().unwrap().get(&map, &opts).is_some());
+        assert_eq!(cache.lock().unwrap().entries.len(), 1);
         // Past the capacity the oldest entry goes.
         let d4 = WaveletOptions { filter: Filter::D4, ..opts };
         let db4_again = WaveletOptions { eps: 0.02, ..opts };
-        assert_eq!(*cache.get_or_compute(&map, &d4), map_bandwidth(&map, &d4));
-        let _ = cache.get_or_compute(&map, &db4_again);
-        assert_eq!(cache.entries.len(), 2);
-        assert!(cache.get(&map, &opts).is_none() && cache.get(&map, &d4).is_some());
+        assert_eq!(*cached_in(&cache, &map, &d4), map_bandwidth(&map, &d4));
+        let _ = cached_in(&cache, &map, &db4_again);
+        let mut c = cache.lock().unwrap();
+        assert_eq!(c.entries.len(), 2);
+        assert!(c.get(&map, &opts).is_none() && c.get(&map, &d4).is_some());
     }
 
     #[test]
