@@ -150,6 +150,21 @@ fn equal_axes_weigh_by_sharpness_ratio_and_eq12_equals_its_appendix_e_form() {
         assert!((lobe_weight(&a, &b, beta) - app_e).abs() < 1e-12);
         assert!((app_e - printed).abs() < 1e-12);
     }
+    // The sharpness term in its one-logarithm form equals ln(4 rho / (1 + rho)^2) from equal
+    // lobes down to a ratio of 1e-300, and is exactly 0 for equal sharpness.
+    let lo_hi: Vec<(f64, f64)> = (0..=300)
+        .map(|k| (10f64.powi(-k), 1.0))
+        .chain([(1.0 - 1e-9, 1.0), (0.999, 1.0), (3.0, 3.0), (1e20, 1e20), (1e-20, 1e20)])
+        .collect();
+    for (lo, hi) in lo_hi {
+        let rho = lo / hi;
+        let want = 0.5 * beta * (4f64.ln() + rho.ln() - 2.0 * rho.ln_1p()).min(0.0);
+        let got = ln_lobe_weight(&Sg::new(DVec3::Z, lo), &Sg::new(DVec3::Z, hi), beta);
+        assert!((got - want).abs() <= 1e-12 * want.abs() + 1e-13, "rho {rho}: {got} vs {want}");
+        if lo == hi {
+            assert_eq!(got, 0.0);
+        }
+    }
 }
 
 #[test]

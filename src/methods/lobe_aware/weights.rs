@@ -7,7 +7,7 @@ use glam::DVec3;
 /// Eq. 12, the single-SG lobe-aware weight of two smoothed lobes (sharpness `lambda_bar`):
 /// `(2 sqrt(l_i l_j) / (l_i + l_j))^beta G(xi_i, xi_j, beta l_i l_j / (l_i + l_j))`, in the
 /// supplemental's App. E form `exp((beta/2) ln(4u / v^2) + (beta u / v)(xi_i.xi_j - 1))`, with
-/// the first term as `(beta/2) ln(4 rho / (1 + rho)^2)`, rho = min/max, so that sharpness from
+/// the first term as `-(beta/2) ln((2 + rho + 1/rho) / 4)`, rho = min/max, so that sharpness from
 /// 1e-20 to 1e20 neither overflows nor underflows (methods.md §3.3). `1 - xi_i.xi_j` is not
 /// clamped to [0, 1]: opposite axes are less alike than perpendicular ones.
 pub fn lobe_weight(a: &Sg, b: &Sg, beta: f64) -> f64 {
@@ -27,7 +27,10 @@ pub fn ln_lobe_weight(a: &Sg, b: &Sg, beta: f64) -> f64 {
         // A uniform lobe against a sharp one: the first factor is 0.
         return f64::NEG_INFINITY;
     }
-    let sharpness_term = 4f64.ln() + rho.ln() - 2.0 * rho.ln_1p();
+    // ln(4 rho / (1 + rho)^2) with one logarithm, and none for lobes of equal sharpness (every
+    // pair of diffuse pixels), whose term is exactly 0; a gather evaluates this per neighbour.
+    // A subnormal rho makes 1/rho infinite and the term minus infinity, its limit.
+    let sharpness_term = if rho == 1.0 { 0.0 } else { -(0.25 * (2.0 + rho + 1.0 / rho)).ln() };
     // u / v = lo hi / (lo + hi) = lo / (1 + rho).
     let u_over_v = lo / (1.0 + rho);
     let c = a.axis.dot(b.axis).clamp(-1.0, 1.0);
