@@ -47,7 +47,7 @@ pub use options::AutoOptions;
 use super::aaf_indirect::{tokuyoshi, IndirectStrategy};
 use super::aaf_shadows::{fill_slopes, ratio, shadow_light, FillGrid, ShadowLight, Slopes};
 use super::lobe_aware::filter::Guide;
-use super::lobe_aware::packed::{gather, PackedGuide, PackedOptions};
+use super::lobe_aware::packed::{gather, gather_with_power, PackedGuide, PackedOptions};
 use super::mode::FilterMode;
 use super::parts;
 use super::uniform::Uniform;
@@ -288,6 +288,7 @@ impl AutoStrategy {
             beta: self.opts.beta as f32,
             sigma_z2_relative: self.opts.sigma_z2_relative as f32,
             max_radius: self.opts.max_radius,
+            linear: false,
         };
         let mut width_px = vec![0.0f32; n];
         let mut components = Vec::new();
@@ -330,6 +331,7 @@ impl AutoStrategy {
         let from = self.opts.narrow_from_spp;
         let two_scales = self.opts.narrow_scale > 0.0 && !parts.is_empty() && self.sums.iter().any(|s| s.x_n >= from);
         let mut narrow_sigma = vec![0.0f32; n];
+        let mut narrow_power = vec![1.0f32; n];
         let indirect: Vec<IndirectPart> = parts
             .iter()
             .map(|&glossy| {
@@ -343,7 +345,8 @@ impl AutoStrategy {
                     let scale = self.opts.narrow_scale as f32;
                     narrow_sigma.iter_mut().zip(&sigma).for_each(|(ns, s)| *ns = s * scale);
                     let mut narrow = light.clone();
-                    gather(&guides, &narrow_sigma, self.width, &mut narrow, &o);
+                    let narrow_o = PackedOptions { linear: self.opts.narrow_linear, ..o };
+                    narrow_power = gather_with_power(&guides, &narrow_sigma, self.width, &mut narrow, &narrow_o);
                     narrow
                 });
                 gather(&guides, &sigma, self.width, &mut light, &o);
@@ -389,7 +392,7 @@ impl AutoStrategy {
             })
             .collect();
         let composed = if two_scales {
-            scales::select(self.width, &composed, &self.sums, &narrow_sigma, from)
+            scales::select(self.width, &composed, &self.sums, &narrow_sigma, &narrow_power, from)
         } else {
             composed.par_iter().map(|c| (c.wide, c.unfiltered)).collect()
         };

@@ -56,6 +56,10 @@ pub struct AutoOptions {
     /// From this many samples per pixel on (fewer samples' variance is too unreliable to weigh
     /// a bias against).
     pub narrow_from_spp: u32,
+    /// The second frame's gather fits a line through its taps (`PackedOptions::linear`) rather
+    /// than taking their mean: beside a crease, where the lobe weight leaves the taps on one
+    /// side, the mean keeps the light's slope into the corner as a bias.
+    pub narrow_linear: bool,
 }
 
 impl Default for AutoOptions {
@@ -79,6 +83,7 @@ impl Default for AutoOptions {
             blend_from_spp: 64,
             narrow_scale: 0.5,
             narrow_from_spp: 32,
+            narrow_linear: true,
         }
     }
 }

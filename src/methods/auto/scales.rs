@@ -6,13 +6,18 @@
 //! are capped by a screen kernel; both are smooth over a surface, so next to a room's crease,
 //! where the incident light falls off into the corner over a few pixels, the filter averages it
 //! with the open surface and the crease comes out too bright. A second gather at `narrow_scale`
-//! of each width has a quarter of the bias and four times the variance there. The two frames
-//! differ by about the wide one's bias plus the narrow one's noise; a bias is shared by a
-//! neighbourhood and noise is not, so `blend::pooled_weights` reads it as the unfiltered mix does,
-//! with the narrow frame in the unfiltered one's place: `W + a (N - W)`, a = b^2 / (b^2 + v_N).
-//! The narrow frame's variance v_N is the pixel's sample variance of the mean times the sum of a
-//! Gaussian kernel's squared weights (`kernel_power`), an upper estimate: it counts the direct
-//! light's noise too, which the two frames share and their difference does not carry.
+//! of each width, fitting a line through its taps in each pass (`narrow_linear`), has less of
+//! that bias: a quarter of the mean's curvature term, and none of its slope term, which is what
+//! a one-sided kernel beside a crease carries (the lobe weight shuts the other face out). It has
+//! more variance, above all there, where the line extrapolates. The two frames differ by about
+//! the wide one's bias plus the narrow one's noise; a bias is shared by a neighbourhood and
+//! noise is not, so `blend::pooled_weights` reads it as the unfiltered mix does, with the
+//! narrow frame in the unfiltered one's place: `W + a (N - W)`, a = b^2 / (b^2 + v_N). The
+//! narrow frame's variance v_N is the pixel's sample variance of the mean times the frame's
+//! noise power, the sum of its two passes' squared effective weights (`gather_with_power`): an
+//! upper estimate, since it counts the direct light's noise too, which the two frames share and
+//! their difference does not carry. A Gaussian's power in its place, blind to the cut kernels
+//! and the fit's extrapolation, took the fit's noise for bias at creases and edges.
 //!
 //! The glossy light keeps one scale: its sample variance, drawn from a spiky lobe, misses its
 //! tail at these counts, and narrowing it on that reading raised the error on `cornell-glossy`.
@@ -29,31 +34,29 @@ pub(super) struct Composed {
     pub unfiltered: [f64; 3],
 }
 
-/// The sum of the squared weights of a normalised 2-D Gaussian of standard deviation `sigma`
-/// pixels, 1 / (4 pi sigma^2) for a wide one, tending to 1 (the pixel alone) as it narrows.
-pub(super) fn kernel_power(sigma: f64) -> f64 {
-    1.0 / (1.0 + 4.0 * std::f64::consts::PI * sigma * sigma)
-}
-
 /// Per pixel, (frame value, unfiltered value): the wide value leaning towards the narrow one
 /// where the neighbourhood shows the wide filter's bias (module docs). `narrow_sigma[p]` is the
-/// narrow diffuse width in pixels; pixels with fewer than `from_spp` samples, or a
-/// `narrow_sigma` of 0 (nothing filtered), keep the wide value exactly.
+/// narrow diffuse width in pixels and `narrow_power[p]` the narrow frame's noise power; pixels
+/// with fewer than `from_spp` samples, or a `narrow_sigma` of 0 (nothing filtered), keep the
+/// wide value exactly.
 pub(super) fn select(
     width: usize,
     composed: &[Composed],
     sums: &[PixelSums],
     narrow_sigma: &[f32],
+    narrow_power: &[f32],
     from_spp: u32,
 ) -> Vec<([f64; 3], [f64; 3])> {
-    let variance: Vec<f64> = (sums.par_iter().zip(narrow_sigma))
-        .map(|(s, &sigma)| {
-            if s.x_n >= from_spp.max(2) && sigma > 0.0 {
-                s.mean_variance() * kernel_power(sigma as f64)
-            } else {
-                f64::INFINITY
-            }
-        })
+    let variance: Vec<f64> = (sums.par_iter().zip(narrow_sigma).zip(narrow_power))
+        .map(
+            |((s, &sigma), &power)| {
+                if s.x_n >= from_spp.max(2) && sigma > 0.0 {
+                    s.mean_variance() * power as f64
+                } else {
+                    f64::INFINITY
+                }
+            },
+        )
         .collect();
     let pairs: Vec<([f64; 3], [f64; 3])> = composed.par_iter().map(|c| (c.wide, c.narrow)).collect();
     let weights = blend::pooled_weights(width, &pairs, &variance);
@@ -78,18 +81,6 @@ mod tests {
         s
     }
 
-    #[test]
-    fn kernel_power_is_one_for_no_kernel_and_the_gaussian_sum_when_wide() {
-        assert_eq!(kernel_power(0.0), 1.0);
-        let sigma = 3.0f64;
-        // Discrete sum of a normalised 2-D Gaussian's squared weights.
-        let r = 20i32;
-        let w: Vec<f64> = (-r..=r).map(|x| (-(x * x) as f64 / (2.0 * sigma * sigma)).exp()).collect();
-        let total: f64 = w.iter().sum::<f64>().powi(2);
-        let squares: f64 = w.iter().map(|a| a * a).sum::<f64>().powi(2) / (total * total);
-        assert!((kernel_power(sigma) / squares - 1.0).abs() < 0.01, "{} vs {squares}", kernel_power(sigma));
-    }
-
     /// A crease along row 4 where the wide filter is 0.3 too bright: the frame there takes the
     /// narrow value (up to the noise weight), and elsewhere, where the two differ by the narrow
     /// frame's noise alone, it keeps the wide one; with too few samples it keeps the wide value
@@ -100,7 +91,8 @@ mod tests {
         let sd = 0.5;
         let sums = vec![pixel(64, sd); w * h];
         let sigma = vec![1.5f32; w * h];
-        let v = sums[0].mean_variance() * kernel_power(1.5);
+        let power = vec![0.05f32; w * h];
+        let v = sums[0].mean_variance() * 0.05;
         // Off the crease, narrow - wide alternates +-sqrt(v) (noise at its own level).
         let composed: Vec<Composed> = (0..w * h)
             .map(|p| {
@@ -109,16 +101,16 @@ mod tests {
                 Composed { wide: [wide; 3], narrow: [narrow; 3], unfiltered: [1.0; 3] }
             })
             .collect();
-        let out = select(w, &composed, &sums, &sigma, 32);
+        let out = select(w, &composed, &sums, &sigma, &power, 32);
         let crease = out[4 * w + 3].0[0];
         assert!((crease - 1.0).abs() < 0.05, "crease {crease}");
         for p in (0..w * h).filter(|p| (p / w) < 2 || (p / w) > 6) {
             assert_eq!(out[p].0, composed[p].wide, "pixel {p} is noise only");
             assert_eq!(out[p].1, composed[p].unfiltered);
         }
-        let early = select(w, &composed, &sums, &sigma, 65);
+        let early = select(w, &composed, &sums, &sigma, &power, 65);
         assert!(early.iter().zip(&composed).all(|(o, c)| o.0 == c.wide));
-        let unfiltered = select(w, &composed, &sums, &vec![0.0; w * h], 32);
+        let unfiltered = select(w, &composed, &sums, &vec![0.0; w * h], &power, 32);
         assert!(unfiltered.iter().zip(&composed).all(|(o, c)| o.0 == c.wide));
     }
 }

@@ -61,6 +61,12 @@ pub struct PackedOptions {
     pub sigma_z2_relative: f32,
     /// The radius is ceil(3 sigma) pixels, capped here.
     pub max_radius: usize,
+    /// Each 1-D gather fits a line through its weighted taps and takes its value at the centre
+    /// (local linear regression) instead of their weighted mean: where the weights keep to one
+    /// side of the centre (a crease, whose other face the lobe weight shuts out) the mean takes
+    /// on the gradient times the taps' mean offset as a bias, which the fit does not. It pays in
+    /// variance there (the line extrapolates); where the taps balance it is the mean.
+    pub linear: bool,
 }
 
 /// ln of Eq. 12's weight of lobes with sharpness (s_i, s_j), their inverses and the dot of their
@@ -79,16 +85,45 @@ fn ln_lobe(s: (f32, f32), inv: (f32, f32), dot: f32, beta: f32) -> f32 {
 /// that both read memory in order. Rows run in parallel; the result does not depend on the
 /// thread count.
 pub fn gather(guides: &[PackedGuide], sigma_px: &[f32], width: usize, values: &mut [[f32; 3]], o: &PackedOptions) {
+    gather_both(guides, sigma_px, width, values, o, false);
+}
+
+/// `gather`, also returning each pixel's noise power: the variance of its filtered value for
+/// inputs of unit variance, independent between pixels (the sum of the squares of the
+/// effective weights with which the two passes combine the inputs; 1 for a pixel that keeps its
+/// value, about 1 / (4 pi sigma^2) for a wide Gaussian over one surface, more where the guides
+/// cut the kernel or the linear fit extrapolates).
+pub fn gather_with_power(
+    guides: &[PackedGuide],
+    sigma_px: &[f32],
+    width: usize,
+    values: &mut [[f32; 3]],
+    o: &PackedOptions,
+) -> Vec<f32> {
+    gather_both(guides, sigma_px, width, values, o, true).unwrap_or_else(|| vec![1.0; values.len()])
+}
+
+fn gather_both(
+    guides: &[PackedGuide],
+    sigma_px: &[f32],
+    width: usize,
+    values: &mut [[f32; 3]],
+    o: &PackedOptions,
+    power: bool,
+) -> Option<Vec<f32>> {
     assert!(guides.len() == values.len() && sigma_px.len() == values.len(), "one guide and width per value");
     if width == 0 || values.is_empty() {
-        return;
+        return None;
     }
     let height = values.len() / width;
-    let across = rows(guides, sigma_px, width, values, o);
+    let ones = power.then(|| vec![1.0f32; values.len()]);
+    let (across, power_across) = rows(guides, sigma_px, width, values, ones.as_deref(), o);
     let (guides_t, sigma_t, across_t) =
         (transpose(guides, width, height), transpose(sigma_px, width, height), transpose(&across, width, height));
-    let down_t = rows(&guides_t, &sigma_t, height, &across_t, o);
+    let power_t = power_across.map(|p| transpose(&p, width, height));
+    let (down_t, power_down_t) = rows(&guides_t, &sigma_t, height, &across_t, power_t.as_deref(), o);
     values.copy_from_slice(&transpose(&down_t, height, width));
+    power_down_t.map(|p| transpose(&p, height, width))
 }
 
 /// `v` (row-major, `width` wide, `height` rows) transposed.
@@ -116,6 +151,8 @@ struct Row {
     depth: Vec<f32>,
     valid: Vec<f32>,
     value: [Vec<f32>; 3],
+    /// Each pixel's noise power (`gather_with_power`), 1 when not asked for.
+    power: Vec<f32>,
     /// Whether every valid pixel of the row has the same sharpness (a row of diffuse pixels):
     /// Eq. 12's sharpness term is then 0 and needs no logarithm.
     uniform: bool,
@@ -123,7 +160,7 @@ struct Row {
 
 impl Row {
     /// Loads `guides` and `values` after `pad` invalid pixels, with `pad + LANES` after.
-    fn load(&mut self, guides: &[PackedGuide], values: &[[f32; 3]], pad: usize) {
+    fn load(&mut self, guides: &[PackedGuide], values: &[[f32; 3]], power: Option<&[f32]>, pad: usize) {
         let n = guides.len() + 2 * pad + LANES;
         let fill = |v: &mut Vec<f32>, x: f32| {
             v.clear();
@@ -137,6 +174,10 @@ impl Row {
         fill(&mut self.inverse, 1.0);
         fill(&mut self.depth, 0.0);
         fill(&mut self.valid, 0.0);
+        fill(&mut self.power, 1.0);
+        if let Some(p) = power {
+            self.power[pad..pad + p.len()].copy_from_slice(p);
+        }
         let first = guides.iter().find(|g| g.is_valid()).map_or(1.0, |g| g.sharpness);
         self.uniform = guides.iter().all(|g| !g.is_valid() || g.sharpness == first);
         for (i, (g, v)) in guides.iter().zip(values).enumerate() {
@@ -153,57 +194,86 @@ impl Row {
     }
 }
 
-/// One 1-D gather along every row.
+/// One 1-D gather along every row; with `power` (the inputs' noise powers), also the outputs'.
 fn rows(
     guides: &[PackedGuide],
     sigma_px: &[f32],
     width: usize,
     values: &[[f32; 3]],
+    power: Option<&[f32]>,
     o: &PackedOptions,
-) -> Vec<[f32; 3]> {
+) -> (Vec<[f32; 3]>, Option<Vec<f32>>) {
     #[cfg(target_arch = "x86_64")]
     let avx2 = std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma");
     let pad = o.max_radius.max(1);
     let mut out = values.to_vec();
-    out.par_chunks_mut(width).enumerate().for_each_init(Row::default, |row, (y, out_row)| {
+    // Unread (and left at 0) when no power is asked for.
+    let mut out_power = power.map_or_else(|| vec![0.0; values.len()], |p| p.to_vec());
+    let chunks = out.par_chunks_mut(width).zip(out_power.par_chunks_mut(width));
+    chunks.enumerate().for_each_init(Row::default, |row, (y, (out_row, power_row))| {
         let span = y * width..(y + 1) * width;
         let s_row = &sigma_px[span.clone()];
         if s_row.iter().all(|&s| !(s > 0.0)) {
             return;
         }
-        row.load(&guides[span.clone()], &values[span], pad);
+        row.load(&guides[span.clone()], &values[span.clone()], power.map(|p| &p[span]), pad);
+        let power_row = power.is_some().then_some(power_row);
         #[cfg(target_arch = "x86_64")]
         if avx2 {
             // SAFETY: the CPU has AVX2 and FMA.
-            return unsafe { row_avx2(row, s_row, out_row, pad, o) };
+            return unsafe { row_avx2(row, s_row, out_row, power_row, pad, o) };
         }
-        row_generic(row, s_row, out_row, pad, o)
+        row_generic(row, s_row, out_row, power_row, pad, o)
     });
-    out
+    (out, power.map(|_| out_power))
 }
 
 /// # Safety
 /// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn row_avx2(row: &mut Row, sigma: &[f32], out: &mut [[f32; 3]], pad: usize, o: &PackedOptions) {
-    row_generic(row, sigma, out, pad, o)
+unsafe fn row_avx2(
+    row: &mut Row,
+    sigma: &[f32],
+    out: &mut [[f32; 3]],
+    power: Option<&mut [f32]>,
+    pad: usize,
+    o: &PackedOptions,
+) {
+    row_generic(row, sigma, out, power, pad, o)
 }
 
-/// Gathers every centre of one loaded row, `LANES` neighbouring centres at a time.
+/// Gathers every centre of one loaded row, `LANES` neighbouring centres at a time; with
+/// `power`, writes each gathered centre's noise power there.
 #[inline(always)]
-fn row_generic(row: &mut Row, sigma: &[f32], out: &mut [[f32; 3]], pad: usize, o: &PackedOptions) {
+fn row_generic(
+    row: &mut Row,
+    sigma: &[f32],
+    out: &mut [[f32; 3]],
+    mut power: Option<&mut [f32]>,
+    pad: usize,
+    o: &PackedOptions,
+) {
     for (b, out) in out.chunks_mut(LANES).enumerate() {
         let x0 = b * LANES;
         let sigma = std::array::from_fn(|l| sigma.get(x0 + l).copied().unwrap_or(0.0));
-        let block = if row.uniform {
-            gather_block::<true>(row, pad + x0, sigma, o)
-        } else {
-            gather_block::<false>(row, pad + x0, sigma, o)
+        let k0 = pad + x0;
+        let block = match (row.uniform, o.linear, power.is_some()) {
+            (true, false, false) => gather_block::<true, false, false>(row, k0, sigma, o),
+            (false, false, false) => gather_block::<false, false, false>(row, k0, sigma, o),
+            (true, true, false) => gather_block::<true, true, false>(row, k0, sigma, o),
+            (false, true, false) => gather_block::<false, true, false>(row, k0, sigma, o),
+            (true, false, true) => gather_block::<true, false, true>(row, k0, sigma, o),
+            (false, false, true) => gather_block::<false, false, true>(row, k0, sigma, o),
+            (true, true, true) => gather_block::<true, true, true>(row, k0, sigma, o),
+            (false, true, true) => gather_block::<false, true, true>(row, k0, sigma, o),
         };
         for (l, out) in out.iter_mut().enumerate() {
-            if let Some(v) = block[l] {
+            if let Some((v, p)) = block[l] {
                 *out = v;
+                if let Some(power) = power.as_deref_mut() {
+                    power[x0 + l] = p;
+                }
             }
         }
     }
@@ -214,12 +284,12 @@ fn row_generic(row: &mut Row, sigma: &[f32], out: &mut [[f32; 3]], pad: usize, o
 /// centre that keeps its value (invalid, or a width of 0). Each centre weighs the taps within
 /// its own radius ceil(3 sigma); the loop runs to the largest.
 #[inline(always)]
-fn gather_block<const UNIFORM: bool>(
+fn gather_block<const UNIFORM: bool, const LINEAR: bool, const POWER: bool>(
     row: &Row,
     k0: usize,
     sigma: [f32; LANES],
     o: &PackedOptions,
-) -> [Option<[f32; 3]>; LANES] {
+) -> [Option<([f32; 3], f32)>; LANES] {
     let lane = |v: &Vec<f32>, at: usize| -> [f32; LANES] { v[at..at + LANES].try_into().expect("LANES taps") };
     let max_radius = o.max_radius.max(1);
     let filtered: [bool; LANES] = std::array::from_fn(|l| row.valid[k0 + l] != 0.0 && sigma[l] > 0.0);
@@ -238,6 +308,10 @@ fn gather_block<const UNIFORM: bool>(
         std::array::from_fn(|l| 1.0 / (2.0 * o.sigma_z2_relative * c_depth[l] * c_depth[l]).max(f32::MIN_POSITIVE));
     let beta = o.beta;
     let (mut sum, mut wsum) = ([[0.0f32; LANES]; 3], [0.0f32; LANES]);
+    // The linear fit's moments: sums of w d, w d^2 and w d v.
+    let (mut s1, mut s2, mut sdv) = ([0.0f32; LANES], [0.0f32; LANES], [[0.0f32; LANES]; 3]);
+    // The noise power's: sums of w^2 P, w^2 d P and w^2 d^2 P.
+    let mut pw = [[0.0f32; LANES]; 3];
     for i in 0..=2 * reach {
         // Every lane's tap at offset d = i - reach from its own centre.
         let at = k0 + i - reach;
@@ -246,6 +320,7 @@ fn gather_block<const UNIFORM: bool>(
         let (s, inv, depth, valid) =
             (lane(&row.sharpness, at), lane(&row.inverse, at), lane(&row.depth, at), lane(&row.valid, at));
         let (vx, vy, vz) = (lane(&row.value[0], at), lane(&row.value[1], at), lane(&row.value[2], at));
+        let tap_power = if POWER { lane(&row.power, at) } else { [0.0; LANES] };
         for l in 0..LANES {
             // The screen term; past the lane's radius, minus infinity (weight 0).
             let screen = if d.abs() <= r_f[l] { -d * d * inv_2s2[l] } else { f32::NEG_INFINITY };
@@ -263,10 +338,47 @@ fn gather_block<const UNIFORM: bool>(
             sum[1][l] += w * vy[l];
             sum[2][l] += w * vz[l];
             wsum[l] += w;
+            if LINEAR {
+                let wd = w * d;
+                s1[l] += wd;
+                s2[l] += wd * d;
+                sdv[0][l] += wd * vx[l];
+                sdv[1][l] += wd * vy[l];
+                sdv[2][l] += wd * vz[l];
+            }
+            if POWER {
+                let wwp = w * w * tap_power[l];
+                pw[0][l] += wwp;
+                if LINEAR {
+                    pw[1][l] += wwp * d;
+                    pw[2][l] += wwp * d * d;
+                }
+            }
         }
     }
     // A filtered centre's own weight is 1 (every factor is), so its sum of weights is at least 1.
-    std::array::from_fn(|l| filtered[l].then(|| [0, 1, 2].map(|c| sum[c][l] / wsum[l])))
+    // The output is sum_j e_j v_j with effective weights e_j = w_j / S0 (the mean) or
+    // w_j (S2 - S1 d_j) / det (the weighted least-squares line a + b d at d = 0); its noise
+    // power is sum_j e_j^2 P_j.
+    std::array::from_fn(|l| {
+        filtered[l].then(|| {
+            let det = wsum[l] * s2[l] - s1[l] * s1[l];
+            // With taps at one offset only (the centre alone) the line is undetermined: the mean.
+            if LINEAR && det > 1e-4 * wsum[l] * s2[l] {
+                let value = [0, 1, 2].map(|c| (s2[l] * sum[c][l] - s1[l] * sdv[c][l]) / det);
+                let power = if POWER {
+                    let (a, b) = (s2[l], s1[l]);
+                    (a * a * pw[0][l] - 2.0 * a * b * pw[1][l] + b * b * pw[2][l]) / (det * det)
+                } else {
+                    0.0
+                };
+                (value, power)
+            } else {
+                let power = if POWER { pw[0][l] / (wsum[l] * wsum[l]) } else { 0.0 };
+                ([0, 1, 2].map(|c| sum[c][l] / wsum[l]), power)
+            }
+        })
+    })
 }
 
 #[cfg(test)]
@@ -324,7 +436,7 @@ mod tests {
         let packed: Vec<PackedGuide> = guides.iter().map(PackedGuide::new).collect();
         let sigma: Vec<f32> = guides.iter().map(|g| g.sigma_px as f32).collect();
         let mut mine: Vec<[f32; 3]> = values.iter().map(|v| v.map(|x| x as f32)).collect();
-        let po = PackedOptions { beta: 20.0, sigma_z2_relative: 0.01, max_radius: 16 };
+        let po = PackedOptions { beta: 20.0, sigma_z2_relative: 0.01, max_radius: 16, linear: false };
         gather(&packed, &sigma, 40, &mut mine, &po);
         let mut changed = 0;
         for (i, (a, b)) in oracle.iter().zip(&mine).enumerate() {
@@ -374,7 +486,7 @@ mod tests {
             &sigma,
             40,
             &mut values,
-            &PackedOptions { beta: 20.0, sigma_z2_relative: 0.01, max_radius: 16 },
+            &PackedOptions { beta: 20.0, sigma_z2_relative: 0.01, max_radius: 16, linear: false },
         );
         for (g, v) in guides.iter().zip(&values) {
             if g.valid {
@@ -387,6 +499,92 @@ mod tests {
         }
     }
 
+    /// A ramp over two faces that meet at a crease (normals 90 degrees apart, so the lobe weight
+    /// shuts each face out of the other's gather): the weighted mean is one-sided beside the
+    /// crease and at the image's borders and takes on the ramp's slope as a bias there; the
+    /// linear fit reproduces the ramp at every pixel, and on a constant image both keep it.
+    #[test]
+    fn the_linear_gather_reproduces_a_ramp_beside_a_crease_where_the_mean_is_biased() {
+        let (w, h) = (28, 13);
+        let guide = |x: usize| {
+            let n = if x < w / 2 { DVec3::Z } else { DVec3::X };
+            PackedGuide::new(&Guide { valid: true, depth: 2.0, normal: n, lobe: diffuse(n), asg: None, sigma_px: 2.0 })
+        };
+        let guides: Vec<PackedGuide> = (0..w * h).map(|p| guide(p % w)).collect();
+        let sigma = vec![2.0f32; w * h];
+        let ramp: Vec<[f32; 3]> = (0..w * h)
+            .map(|p| {
+                let v = 1.0 + 0.1 * (p % w) as f32 + 0.05 * (p / w) as f32;
+                [v, 2.0 * v, 0.5]
+            })
+            .collect();
+        let opts = |linear| PackedOptions { beta: 20.0, sigma_z2_relative: 0.01, max_radius: 16, linear };
+        let (mut mean, mut fit) = (ramp.clone(), ramp.clone());
+        gather(&guides, &sigma, w, &mut mean, &opts(false));
+        gather(&guides, &sigma, w, &mut fit, &opts(true));
+        for (p, (want, got)) in ramp.iter().zip(&fit).enumerate() {
+            for c in 0..3 {
+                assert!((want[c] - got[c]).abs() < 1e-4 * want[c], "pixel {p}, channel {c}: {got:?} vs {want:?}");
+            }
+        }
+        // Beside the crease (x = 13, mid-height) the mean takes on about -0.1 times the taps'
+        // mean offset, which lie to its left only.
+        let beside = 6 * w + w / 2 - 1;
+        assert!(ramp[beside][0] - mean[beside][0] > 0.1, "{:?} vs {:?}", mean[beside], ramp[beside]);
+        // Away from the crease and the borders (radius 6) the taps balance and the two agree.
+        let inside = 6 * w + 6;
+        assert!((mean[inside][0] - fit[inside][0]).abs() < 1e-4, "{:?} vs {:?} (ramp {:?})", mean[inside], fit[inside], ramp[inside]);
+        let mut constant = vec![[0.25f32, 1.5, 3.0]; w * h];
+        gather(&guides, &sigma, w, &mut constant, &opts(true));
+        assert!(constant.iter().all(|v| v.iter().zip([0.25f32, 1.5, 3.0]).all(|(a, b)| (a - b).abs() < 1e-5 * b)));
+    }
+
+    /// The noise power is the variance of the filtered value of independent unit-variance
+    /// inputs: checked against filtered noise images, beside a crease (one-sided taps) and away
+    /// from it, for the mean and the linear fit, and against the discrete Gaussian's sum of
+    /// squared weights on one surface; a pixel that keeps its value has power 1.
+    #[test]
+    fn the_noise_power_is_the_variance_of_filtered_noise() {
+        let (w, h) = (24, 11);
+        let guide = |x: usize| {
+            let n = if x < w / 2 { DVec3::Z } else { DVec3::X };
+            PackedGuide::new(&Guide { valid: true, depth: 2.0, normal: n, lobe: diffuse(n), asg: None, sigma_px: 1.5 })
+        };
+        let guides: Vec<PackedGuide> = (0..w * h).map(|p| guide(p % w)).collect();
+        let mut sigma = vec![1.5f32; w * h];
+        sigma[0] = 0.0;
+        let (beside, inside) = (5 * w + w / 2 - 1, 5 * w + 5);
+        let mut rng = Rng(19);
+        for linear in [false, true] {
+            let o = PackedOptions { beta: 20.0, sigma_z2_relative: 0.01, max_radius: 16, linear };
+            let mut unit = vec![[0.0f32; 3]; w * h];
+            let power = gather_with_power(&guides, &sigma, w, &mut unit, &o);
+            assert_eq!(power[0], 1.0);
+            let trials = 1500;
+            let mut second_moment = vec![0.0f64; w * h];
+            for _ in 0..trials {
+                // Uniform noise of unit variance.
+                let mut v: Vec<[f32; 3]> = (0..w * h).map(|_| [(rng.f() - 0.5) * 12f32.sqrt(), 0.0, 0.0]).collect();
+                gather(&guides, &sigma, w, &mut v, &o);
+                second_moment.iter_mut().zip(&v).for_each(|(m, x)| *m += (x[0] as f64).powi(2) / trials as f64);
+            }
+            for p in [beside, inside, beside + w + 1] {
+                let ratio = second_moment[p] / power[p] as f64;
+                assert!((ratio - 1.0).abs() < 0.15, "linear {linear}, pixel {p}: {} vs {}", second_moment[p], power[p]);
+            }
+            assert!(power[beside] > 1.5 * power[inside], "linear {linear}: {} vs {}", power[beside], power[inside]);
+            // Away from the crease and the borders: the separable Gaussian's power.
+            let g: Vec<f64> = (-5..=5).map(|d: i32| (-(d * d) as f64 / (2.0 * 1.5 * 1.5)).exp()).collect();
+            let one_d = g.iter().map(|x| x * x).sum::<f64>() / g.iter().sum::<f64>().powi(2);
+            assert!(
+                (power[inside] as f64 / (one_d * one_d) - 1.0).abs() < 1e-3,
+                "{} vs {}",
+                power[inside],
+                one_d * one_d
+            );
+        }
+    }
+
     #[test]
     fn the_result_does_not_depend_on_the_thread_count() {
         let mut rng = Rng(5);
@@ -396,7 +594,7 @@ mod tests {
         let run = |threads: usize| {
             let mut v: Vec<[f32; 3]> = values.iter().map(|v| v.map(|x| x as f32)).collect();
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            let o = PackedOptions { beta: 20.0, sigma_z2_relative: 0.01, max_radius: 16 };
+            let o = PackedOptions { beta: 20.0, sigma_z2_relative: 0.01, max_radius: 16, linear: false };
             pool.install(|| gather(&packed, &sigma, 40, &mut v, &o));
             v
         };
