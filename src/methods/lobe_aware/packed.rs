@@ -533,7 +533,13 @@ mod tests {
         assert!(ramp[beside][0] - mean[beside][0] > 0.1, "{:?} vs {:?}", mean[beside], ramp[beside]);
         // Away from the crease and the borders (radius 6) the taps balance and the two agree.
         let inside = 6 * w + 6;
-        assert!((mean[inside][0] - fit[inside][0]).abs() < 1e-4, "{:?} vs {:?} (ramp {:?})", mean[inside], fit[inside], ramp[inside]);
+        assert!(
+            (mean[inside][0] - fit[inside][0]).abs() < 1e-4,
+            "{:?} vs {:?} (ramp {:?})",
+            mean[inside],
+            fit[inside],
+            ramp[inside]
+        );
         let mut constant = vec![[0.25f32, 1.5, 3.0]; w * h];
         gather(&guides, &sigma, w, &mut constant, &opts(true));
         assert!(constant.iter().all(|v| v.iter().zip([0.25f32, 1.5, 3.0]).all(|(a, b)| (a - b).abs() < 1e-5 * b)));
