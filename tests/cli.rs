@@ -234,3 +234,41 @@ fn serve_refuses_an_exposed_address_without_tls_and_a_token() {
     let o = wedge(&["serve", "--tls-cert", good.to_str().unwrap(), "--tls-key", good.to_str().unwrap()]);
     assert!(stderr(&o).contains("not a PEM file"), "{}", stderr(&o));
 }
+
+/// `wedge bench --set`: a setting is applied to the methods and named in the report's heading;
+/// a value outside its limits or an unknown name is refused before anything renders.
+#[test]
+fn bench_settings_are_applied_and_bad_ones_refused_by_name() {
+    let dir = temp_dir("bench-set");
+    let base = [
+        "bench",
+        "cornell",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--reference-spp",
+        "16",
+        "--uniform-passes",
+        "2",
+        "--passes",
+        "2",
+        "--repeats",
+        "1",
+        "--methods",
+        "uniform,auto",
+        "--out",
+    ];
+    let args = [&base[..], &[dir.to_str().unwrap(), "--set", "auto.narrow_scale=0.25"]].concat();
+    let o = wedge(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("auto.narrow_scale=0.25;"), "{out}");
+    for (bad, says) in [
+        ("auto.narrow_scale=2", "auto.narrow_scale: \"2\" is not a number from 0 to 1"),
+        ("auto.nope=1", "no such setting; auto has reference_spp"),
+    ] {
+        let o = wedge(&[&base[..], &[dir.to_str().unwrap(), "--set", bad]].concat());
+        assert!(!o.status.success() && stderr(&o).contains(says), "{bad}: {}", stderr(&o));
+    }
+}

@@ -45,6 +45,8 @@ pub struct BenchConfig {
     pub asg_lobes: bool,
     /// The lobe- and normal-aware methods' upsampling factor.
     pub upsample: Option<u32>,
+    /// Method options set by name (`RenderJob::set`), checked when parsed.
+    pub settings: Vec<String>,
     /// Leave out of every error the pixels whose reference exceeds this in some channel and
     /// their neighbours (`convergence::kept_pixels`): a light in view.
     pub exclude_above: Option<f32>,
@@ -157,6 +159,9 @@ pub fn bench_scene(
             if let Some(f) = cfg.upsample.filter(|_| matches!(method, Method::LobeAware | Method::NormalAware)) {
                 j.lobe.upsample.factor = f;
             }
+            for assignment in &cfg.settings {
+                j.set(assignment).map_err(|e| anyhow::anyhow!("--set: {e}"))?;
+            }
             let (pts, last) = sweep(&j, &reference, &keep);
             if let Some(last) = last.filter(|_| r == 0) {
                 last_frames.push((method, last));
@@ -192,6 +197,9 @@ fn options_note(cfg: &BenchConfig) -> String {
     }
     if let Some(t) = cfg.exclude_above {
         let _ = write!(s, ", errors without pixels whose reference exceeds {t} and their neighbours");
+    }
+    for assignment in &cfg.settings {
+        let _ = write!(s, ", {assignment}");
     }
     s
 }
@@ -274,7 +282,7 @@ pub fn write_outputs(results: &[SceneResult], cfg: &BenchConfig) -> anyhow::Resu
         .map(|r| {
             let base = r.curves.iter().find(|c| c.method == Method::Uniform).map(|c| c.points.as_slice()).unwrap_or(&[]);
             json!({
-                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces, "pixel_centers": cfg.pixel_centers, "indirect_kernel_scale": cfg.indirect_kernel_scale, "shadow_mu0": cfg.shadow_mu0, "shadow_profile_sigma": cfg.shadow_profile_sigma, "asg_lobes": cfg.asg_lobes, "upsample": cfg.upsample, "exclude_above": cfg.exclude_above, "excluded_pixels": r.excluded,
+                "scene": r.name, "width": cfg.width, "height": cfg.height, "bounces": r.bounces, "pixel_centers": cfg.pixel_centers, "indirect_kernel_scale": cfg.indirect_kernel_scale, "shadow_mu0": cfg.shadow_mu0, "shadow_profile_sigma": cfg.shadow_profile_sigma, "asg_lobes": cfg.asg_lobes, "upsample": cfg.upsample, "exclude_above": cfg.exclude_above, "settings": cfg.settings, "excluded_pixels": r.excluded,
                 "reference": r.reference_note,
                 "runs": r.runs.iter().map(|(seed, p)| { let mut v = point(p); v["repeat"] = json!(seed); v }).collect::<Vec<_>>(),
                 "medians": r.curves.iter().flat_map(|c| c.points.iter().map(|p| {
@@ -398,6 +406,7 @@ mod tests {
             flip_maps: true,
             asg_lobes: false,
             upsample: None,
+            settings: Vec::new(),
             exclude_above: None,
             out: out.clone(),
             name: "t".into(),

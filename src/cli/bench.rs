@@ -77,6 +77,11 @@ pub struct ConvergenceArgs {
     /// their 8 neighbours (a light in view and its edge), as bench/race.py does.
     #[arg(long)]
     pub exclude_above: Option<f32>,
+    /// Set a method option by name for every render but the reference, GROUP.NAME=VALUE
+    /// (repeatable; groups `auto` and `bandwidth`, e.g. `auto.narrow_scale=0.25`): how a choice
+    /// measured against the default is rerun. An unknown name lists its group's names.
+    #[arg(long = "set", value_name = "GROUP.NAME=VALUE")]
+    pub settings: Vec<String>,
     /// Also write each method's FLIP error map of its last frame (first seed),
     /// NAME-SCENE-METHOD-flip.png, in FLIP's magma colours.
     #[arg(long)]
@@ -438,6 +443,9 @@ fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
         a.exclude_above.is_none_or(|t| t.is_finite() && t > 0.0),
         "--exclude-above: must be a finite number > 0"
     );
+    for assignment in &a.settings {
+        crate::pipeline::settings::check(assignment).map_err(|e| anyhow::anyhow!("--set: {e}"))?;
+    }
     for (flag, v) in [("--indirect-kernel-scale", a.indirect_kernel_scale), ("--shadow-mu0", a.shadow_mu0)] {
         anyhow::ensure!(v.is_none_or(|v| v.is_finite() && v > 0.0), "{flag}: must be a finite number > 0");
     }
@@ -461,6 +469,7 @@ fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
         asg_lobes: a.asg_lobes,
         upsample: a.upsample,
         exclude_above: a.exclude_above,
+        settings: a.settings.clone(),
         out: a.out.clone(),
         name: a.name.clone().unwrap_or_else(|| if q { "quick".into() } else { "full".into() }),
         command: std::env::args().collect::<Vec<_>>().join(" "),

@@ -1,6 +1,6 @@
 //! The progressive pipeline every method runs in. Bottom up: `job` (the leaf every layer shares),
 //! `frame` and `film` (what a pass produces and accumulates), `strategy` (the per-pass trait),
-//! then, above the methods, `registry` (the one table of methods) and `progressive` (the pass
+//! `settings` (method options set by name), then, above the methods, `registry` (the one table of methods) and `progressive` (the pass
 //! loop, the shared G-buffer and the halt conditions).
 pub mod film;
 pub mod frame;
@@ -8,4 +8,5 @@ pub mod job;
 pub mod noise;
 pub mod progressive;
 pub mod registry;
+pub mod settings;
 pub mod strategy;

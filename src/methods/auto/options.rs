@@ -1,4 +1,5 @@
 //! Options of `auto` (plain data: the job carries them).
+use crate::pipeline::settings::{Settable, Setting, Value};
 
 /// How `auto` sets its filters (methods.md §5).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -102,5 +103,59 @@ impl AutoOptions {
     /// The widest screen kernel at `spp` samples per pixel (pixels).
     pub fn max_sigma(&self, spp: f64) -> f64 {
         self.max_sigma_px / self.growth(spp)
+    }
+}
+
+impl Settable for AutoOptions {
+    const GROUP: &'static str = "auto";
+
+    fn settings() -> &'static [Setting] {
+        const SETTINGS: &[Setting] = &[
+            Setting::number("reference_spp", 1.0, 1e6),
+            Setting::number("refine_exponent", 0.0, 1.0),
+            Setting::number("shadow_width_scale", 0.0, 16.0),
+            Setting::number("indirect_width_scale", 0.0, 16.0),
+            Setting::integer("analysis_spp", 0, 1024),
+            Setting::integer("reflector_radius", 0, 16),
+            Setting::number("max_sigma_px", 0.0, 64.0),
+            Setting::integer("max_radius", 1, 64),
+            Setting::number("beta", 0.0, 1000.0),
+            Setting::number("sigma_z2_relative", 0.0, 100.0),
+            Setting::integer("r_block", 1, 1024),
+            Setting::integer("adaptive_from_spp", 0, 1 << 20),
+            Setting::integer("adaptive_radius", 0, 16),
+            Setting::number("adaptive_share", 0.0, 1.0),
+            Setting::number("adaptive_max_ratio", 1.0, 1000.0),
+            Setting::integer("blend_from_spp", 0, 1 << 20),
+            Setting::number("narrow_scale", 0.0, 1.0),
+            Setting::integer("narrow_from_spp", 0, 1 << 20),
+            Setting::flag("narrow_linear"),
+        ];
+        SETTINGS
+    }
+
+    fn apply(&mut self, name: &str, v: Value) {
+        match name {
+            "reference_spp" => self.reference_spp = v.number(),
+            "refine_exponent" => self.refine_exponent = v.number(),
+            "shadow_width_scale" => self.shadow_width_scale = v.number(),
+            "indirect_width_scale" => self.indirect_width_scale = v.number(),
+            "analysis_spp" => self.analysis_spp = v.integer() as u32,
+            "reflector_radius" => self.reflector_radius = v.integer() as usize,
+            "max_sigma_px" => self.max_sigma_px = v.number(),
+            "max_radius" => self.max_radius = v.integer() as usize,
+            "beta" => self.beta = v.number(),
+            "sigma_z2_relative" => self.sigma_z2_relative = v.number(),
+            "r_block" => self.r_block = v.integer() as u32,
+            "adaptive_from_spp" => self.adaptive_from_spp = v.integer() as u32,
+            "adaptive_radius" => self.adaptive_radius = v.integer() as usize,
+            "adaptive_share" => self.adaptive_share = v.number(),
+            "adaptive_max_ratio" => self.adaptive_max_ratio = v.number(),
+            "blend_from_spp" => self.blend_from_spp = v.integer() as u32,
+            "narrow_scale" => self.narrow_scale = v.number(),
+            "narrow_from_spp" => self.narrow_from_spp = v.integer() as u32,
+            "narrow_linear" => self.narrow_linear = v.flag(),
+            _ => unreachable!("{name} is in `settings`"),
+        }
     }
 }

@@ -4,6 +4,7 @@ use super::illumination::WaveletOptions;
 use super::upsample::UpsampleOptions;
 use super::vector::{BrdfClip, Propagation};
 use super::wavelet::Basis;
+use crate::pipeline::settings::{Settable, Setting, Value};
 
 /// How the shaded, unshadowed light `S_hat` meets the shadows each camera sample traces (the
 /// paper shades unshadowed light; wedge's images have shadows).
@@ -101,6 +102,52 @@ impl Default for BandwidthOptions {
             upsample: UpsampleOptions::default(),
             same_object: true,
             visibility: Visibility::Ratio,
+        }
+    }
+}
+
+impl Settable for BandwidthOptions {
+    const GROUP: &'static str = "bandwidth";
+
+    fn settings() -> &'static [Setting] {
+        const SETTINGS: &[Setting] = &[
+            Setting::integer("light_samples", 1, 256),
+            Setting::flag("normalised"),
+            Setting::choice("propagation", &["bounding-box", "signed"]),
+            Setting::choice("brdf_clip", &["spectrum", "angle"]),
+            Setting::flag("nyquist"),
+            Setting::integer("texels_per_square", 1, super::texture::MAX_TEXELS_PER_SQUARE as u64),
+            Setting::flag("antialiasing"),
+            Setting::flag("coarse_analysis"),
+            Setting::number("lookups_per_sample", 0.25, 256.0),
+            Setting::flag("lookups_by_influence"),
+            Setting::integer("max_lookups", 1, 65536),
+            Setting::integer("level_step", 1, 16),
+            Setting::flag("same_object"),
+            Setting::choice("visibility", &["ratio", "control-variate"]),
+        ];
+        SETTINGS
+    }
+
+    fn apply(&mut self, name: &str, v: Value) {
+        match name {
+            "light_samples" => self.light_samples = v.integer() as u32,
+            "normalised" => self.normalised = v.flag(),
+            "propagation" => {
+                self.propagation = [Propagation::BoundingBox, Propagation::Signed][v.choice()];
+            }
+            "brdf_clip" => self.brdf_clip = [BrdfClip::Spectrum, BrdfClip::Angle][v.choice()],
+            "nyquist" => self.nyquist = v.flag(),
+            "texels_per_square" => self.texels_per_square = v.integer() as u32,
+            "antialiasing" => self.antialiasing = v.flag(),
+            "coarse_analysis" => self.coarse_analysis = v.flag(),
+            "lookups_per_sample" => self.lookups_per_sample = v.number(),
+            "lookups_by_influence" => self.lookups_by_influence = v.flag(),
+            "max_lookups" => self.max_lookups = v.integer() as u32,
+            "level_step" => self.level_step = v.integer() as u32,
+            "same_object" => self.same_object = v.flag(),
+            "visibility" => self.visibility = [Visibility::Ratio, Visibility::ControlVariate][v.choice()],
+            _ => unreachable!("{name} is in `settings`"),
         }
     }
 }
