@@ -88,6 +88,8 @@ def parse_args(argv=None):
     ap.add_argument("--exclude-above", type=float, default=1.0, help="leave out pixels whose reference exceeds this")
     ap.add_argument("--no-mitsuba", action="store_true")
     ap.add_argument("--no-oidn", action="store_true")
+    ap.add_argument("--set", action="append", default=[], metavar="GROUP.NAME=VALUE",
+                    help="a method option for every wedge render (`wedge render --set`), repeatable")
     ap.add_argument("--save", help="directory for the images (EXR and PNG, first seed)")
     ap.add_argument("--out", help="Markdown report (a CSV is written beside it)")
     ap.add_argument("--probe-llvm", action="store_true", help=argparse.SUPPRESS)
@@ -238,6 +240,8 @@ def wedge_runs(args, mc, path, bounces, metrics):
                         cmd.append("--aovs")
                     if factor:
                         cmd += ["--upsample", factor]
+                    for assignment in args.set:
+                        cmd += ["--set", assignment]
                     p = subprocess.run(cmd, capture_output=True, text=True)
                     m = WROTE.search(p.stderr)
                     if p.returncode != 0 or not m:

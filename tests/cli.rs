@@ -272,3 +272,27 @@ fn bench_settings_are_applied_and_bad_ones_refused_by_name() {
         assert!(!o.status.success() && stderr(&o).contains(says), "{bad}: {}", stderr(&o));
     }
 }
+
+/// `wedge render --set` applies a setting (the output differs from the default's) and refuses
+/// a bad one by name; `wedge client` refuses the flag, which a server would not honour.
+#[test]
+fn render_settings_are_applied_and_the_client_refuses_them() {
+    let dir = temp_dir("render-set");
+    let out = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    let render = |name: &str, extra: &[&str]| {
+        let o = out(name);
+        let mut a = vec!["render", "cornell", "--bounces", "1", "--out", &o];
+        a.extend(ARGS);
+        a.extend(extra);
+        wedge(&a)
+    };
+    let plain = render("plain", &[]);
+    let set = render("set", &["--set", "auto.beta=2"]);
+    assert!(plain.status.success() && set.status.success(), "{}{}", stderr(&plain), stderr(&set));
+    let read = |name: &str| std::fs::read(dir.join(name).join("final.exr")).unwrap();
+    assert_ne!(read("plain"), read("set"), "auto.beta=2 must change the filtered image");
+    let bad = render("bad", &["--set", "auto.beta=-1"]);
+    assert!(!bad.status.success() && stderr(&bad).contains("auto.beta"), "{}", stderr(&bad));
+    let client = wedge(&["client", "cornell", "--addr", "http://127.0.0.1:9", "--set", "auto.beta=2"]);
+    assert!(!client.status.success() && stderr(&client).contains("`wedge render` only"), "{}", stderr(&client));
+}

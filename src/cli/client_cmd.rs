@@ -11,6 +11,10 @@ use anyhow::anyhow;
 
 pub fn run(args: ClientArgs) -> anyhow::Result<()> {
     let r = &args.render;
+    anyhow::ensure!(
+        r.settings.is_empty(),
+        "--set: `wedge render` only; a server takes no options beyond its request's"
+    );
     let scene = resolve_scene(r)?;
     let mut source = scene.source.clone();
     // Servers refuse file paths: send mesh files' and maps' contents inline.

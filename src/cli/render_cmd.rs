@@ -11,8 +11,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let scene = resolve_scene(&args)?;
     let req = build_request(&args, scene.source.clone())?;
     let limits = Limits { mesh_root: scene.mesh_root.clone(), ..Limits::local() };
-    let prepared = prepare(&req, &limits, scene.base_dir.as_deref(), &scene.label)
+    let mut prepared = prepare(&req, &limits, scene.base_dir.as_deref(), &scene.label)
         .map_err(|e| anyhow!("{}", scene.describe(&e)))?;
+    for assignment in &args.settings {
+        prepared.job.set(assignment).map_err(|e| anyhow!("--set: {e}"))?;
+    }
     let job = &prepared.job;
     // A bar over the passes when a pass count ends the render; a spinner when spp or time do.
     let by_passes =
