@@ -444,7 +444,7 @@ fn convergence(a: ConvergenceArgs) -> anyhow::Result<()> {
         "--exclude-above: must be a finite number > 0"
     );
     for assignment in &a.settings {
-        crate::pipeline::settings::check(assignment).map_err(|e| anyhow::anyhow!("--set: {e}"))?;
+        crate::pipeline::named_options::check(assignment).map_err(|e| anyhow::anyhow!("--set: {e}"))?;
     }
     for (flag, v) in [("--indirect-kernel-scale", a.indirect_kernel_scale), ("--shadow-mu0", a.shadow_mu0)] {
         anyhow::ensure!(v.is_none_or(|v| v.is_finite() && v > 0.0), "{flag}: must be a finite number > 0");
