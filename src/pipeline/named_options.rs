@@ -4,6 +4,7 @@ use super::job::RenderJob;
 use super::settings::{parse, Settable, Setting};
 use crate::methods::auto::options::AutoOptions;
 use crate::methods::bandwidth::options::BandwidthOptions;
+use crate::methods::lobe_aware::options::LobeAwareOptions;
 
 /// Sets `name` (a field of `T`) to `text`.
 fn set_in<T: Settable>(options: &mut T, name: &str, text: &str) -> Result<(), String> {
@@ -21,22 +22,27 @@ pub fn all_settings() -> Vec<(String, Setting)> {
     fn of<T: Settable>() -> impl Iterator<Item = (String, Setting)> {
         T::settings().iter().map(|s| (format!("{}.{}", T::GROUP, s.name), *s))
     }
-    of::<AutoOptions>().chain(of::<BandwidthOptions>()).collect()
+    of::<AutoOptions>().chain(of::<BandwidthOptions>()).chain(of::<LobeAwareOptions>()).collect()
 }
 
 impl RenderJob {
     /// Applies one `GROUP.FIELD=VALUE` assignment (see `settings`).
     pub fn set(&mut self, assignment: &str) -> Result<(), String> {
-        assign(&mut self.auto, &mut self.bandwidth, assignment)
+        assign(&mut self.auto, &mut self.bandwidth, &mut self.lobe, assignment)
     }
 }
 
 /// Whether `assignment` would be accepted, without a job to apply it to.
 pub fn check(assignment: &str) -> Result<(), String> {
-    assign(&mut Default::default(), &mut Default::default(), assignment)
+    assign(&mut Default::default(), &mut Default::default(), &mut Default::default(), assignment)
 }
 
-fn assign(auto: &mut AutoOptions, bandwidth: &mut BandwidthOptions, assignment: &str) -> Result<(), String> {
+fn assign(
+    auto: &mut AutoOptions,
+    bandwidth: &mut BandwidthOptions,
+    lobe: &mut LobeAwareOptions,
+    assignment: &str,
+) -> Result<(), String> {
     let (key, text) = assignment
         .split_once('=')
         .ok_or_else(|| format!("{assignment:?}: expected NAME=VALUE, e.g. auto.narrow_scale=0.25"))?;
@@ -46,7 +52,8 @@ fn assign(auto: &mut AutoOptions, bandwidth: &mut BandwidthOptions, assignment: 
     match group {
         "auto" => set_in(auto, name, text),
         "bandwidth" => set_in(bandwidth, name, text),
-        _ => Err(format!("{key}: no group {group:?}; the groups are auto, bandwidth")),
+        "lobe" => set_in(lobe, name, text),
+        _ => Err(format!("{key}: no group {group:?}; the groups are auto, bandwidth, lobe")),
     }
 }
 
@@ -77,7 +84,7 @@ mod tests {
         for (bad, says) in [
             ("auto.narrow_scale", "expected NAME=VALUE"),
             ("narrow_scale=1", "expected GROUP.NAME"),
-            ("lobe.beta=1", "no group"),
+            ("aaf.mu0=1", "no group"),
             ("auto.nope=1", "no such setting"),
             ("auto.narrow_scale=2", "a number from 0 to 1"),
             ("auto.narrow_scale=NaN", "a number from 0 to 1"),
@@ -96,12 +103,16 @@ mod tests {
     }
 
     /// Every setting at each of its limits renders a finite image (with a bounce, on a scene
-    /// the method acts on: `cornell` for `auto`, `sky-spheres` for `bandwidth`).
+    /// the method acts on: `cornell` for `auto`, `cornell-glossy` for `lobe-aware`,
+    /// `sky-spheres` for `bandwidth`).
     #[test]
     fn every_setting_at_its_limits_renders_a_finite_image() {
         for (key, setting) in all_settings() {
-            let (scene, method) =
-                if key.starts_with("auto.") { ("cornell", Method::Auto) } else { ("sky-spheres", Method::Bandwidth) };
+            let (scene, method) = match key.split('.').next() {
+                Some("auto") => ("cornell", Method::Auto),
+                Some("lobe") => ("cornell-glossy", Method::LobeAware),
+                _ => ("sky-spheres", Method::Bandwidth),
+            };
             let values: Vec<String> = match setting.kind {
                 Kind::Number { lo, hi } => vec![lo.to_string(), hi.to_string()],
                 Kind::Integer { lo, hi } => vec![lo.to_string(), hi.to_string()],

@@ -1,5 +1,6 @@
 //! Options of the lobe-aware filter (Tokuyoshi 2015) and of its normal-aware baseline.
 use super::filter::Gather;
+use crate::pipeline::settings::{Settable, Setting, Value};
 
 /// How a pixel's lobe is built (App. B), and where the warp degenerates.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -150,6 +151,54 @@ impl LobeAwareOptions {
             WeightOptions::kappa_for(bounces)
         } else {
             self.weights.kappa
+        }
+    }
+}
+
+impl Settable for LobeAwareOptions {
+    const GROUP: &'static str = "lobe";
+
+    fn settings() -> &'static [Setting] {
+        const SETTINGS: &[Setting] = &[
+            Setting::number("sigma0_px", 0.0, 16.0),
+            Setting::number("refine_exponent", 0.0, 1.0),
+            Setting::integer("max_radius", 1, 64),
+            Setting::flag("kappa_from_bounces"),
+            Setting::choice("gather", &["separable", "full"]),
+            Setting::number("weights.beta", 0.0, 1000.0),
+            Setting::number("weights.kappa", 0.01, 1e6),
+            Setting::number("weights.sigma_n2", 1e-6, 100.0),
+            Setting::number("weights.sigma_z2_relative", 0.0, 100.0),
+            Setting::number("lobe.min_cos_view", 1e-3, 1.0),
+            Setting::number("lobe.max_sharpness", 1.0, 1e12),
+            Setting::choice("lobe.shape", &["sg", "asg"]),
+            Setting::integer("upsample.factor", 1, MAX_UPSAMPLE_FACTOR as u64),
+            Setting::integer("upsample.full_resolution_spp", 1, 1 << 20),
+            Setting::number("upsample.rerender_below", 0.0, 1.0),
+            Setting::number("upsample.kappa", 0.01, 1e6),
+        ];
+        SETTINGS
+    }
+
+    fn apply(&mut self, name: &str, v: Value) {
+        match name {
+            "sigma0_px" => self.sigma0_px = v.number(),
+            "refine_exponent" => self.refine_exponent = v.number(),
+            "max_radius" => self.max_radius = v.integer() as usize,
+            "kappa_from_bounces" => self.kappa_from_bounces = v.flag(),
+            "gather" => self.gather = [Gather::Separable, Gather::Full][v.choice()],
+            "weights.beta" => self.weights.beta = v.number(),
+            "weights.kappa" => self.weights.kappa = v.number(),
+            "weights.sigma_n2" => self.weights.sigma_n2 = v.number(),
+            "weights.sigma_z2_relative" => self.weights.sigma_z2_relative = v.number(),
+            "lobe.min_cos_view" => self.lobe.min_cos_view = v.number(),
+            "lobe.max_sharpness" => self.lobe.max_sharpness = v.number(),
+            "lobe.shape" => self.lobe.shape = [LobeShape::Sg, LobeShape::Asg][v.choice()],
+            "upsample.factor" => self.upsample.factor = v.integer() as u32,
+            "upsample.full_resolution_spp" => self.upsample.full_resolution_spp = v.integer() as u32,
+            "upsample.rerender_below" => self.upsample.rerender_below = v.number(),
+            "upsample.kappa" => self.upsample.kappa = v.number(),
+            _ => unreachable!("{name} is in `settings`"),
         }
     }
 }
