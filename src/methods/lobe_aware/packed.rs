@@ -499,6 +499,16 @@ mod tests {
         }
     }
 
+    /// Diffuse guides of two faces meeting at a vertical crease in the middle of a `w` x `h`
+    /// image, their normals 90 degrees apart, at one depth.
+    fn crease(w: usize, h: usize) -> Vec<PackedGuide> {
+        let guide = |x: usize| {
+            let n = if x < w / 2 { DVec3::Z } else { DVec3::X };
+            PackedGuide::new(&Guide { valid: true, depth: 2.0, normal: n, lobe: diffuse(n), asg: None, sigma_px: 1.0 })
+        };
+        (0..w * h).map(|p| guide(p % w)).collect()
+    }
+
     /// A ramp over two faces that meet at a crease (normals 90 degrees apart, so the lobe weight
     /// shuts each face out of the other's gather): the weighted mean is one-sided beside the
     /// crease and at the image's borders and takes on the ramp's slope as a bias there; the
@@ -506,11 +516,7 @@ mod tests {
     #[test]
     fn the_linear_gather_reproduces_a_ramp_beside_a_crease_where_the_mean_is_biased() {
         let (w, h) = (28, 13);
-        let guide = |x: usize| {
-            let n = if x < w / 2 { DVec3::Z } else { DVec3::X };
-            PackedGuide::new(&Guide { valid: true, depth: 2.0, normal: n, lobe: diffuse(n), asg: None, sigma_px: 2.0 })
-        };
-        let guides: Vec<PackedGuide> = (0..w * h).map(|p| guide(p % w)).collect();
+        let guides = crease(w, h);
         let sigma = vec![2.0f32; w * h];
         let ramp: Vec<[f32; 3]> = (0..w * h)
             .map(|p| {
@@ -552,11 +558,7 @@ mod tests {
     #[test]
     fn the_noise_power_is_the_variance_of_filtered_noise() {
         let (w, h) = (24, 11);
-        let guide = |x: usize| {
-            let n = if x < w / 2 { DVec3::Z } else { DVec3::X };
-            PackedGuide::new(&Guide { valid: true, depth: 2.0, normal: n, lobe: diffuse(n), asg: None, sigma_px: 1.5 })
-        };
-        let guides: Vec<PackedGuide> = (0..w * h).map(|p| guide(p % w)).collect();
+        let guides = crease(w, h);
         let mut sigma = vec![1.5f32; w * h];
         sigma[0] = 0.0;
         let (beside, inside) = (5 * w + w / 2 - 1, 5 * w + 5);
