@@ -67,7 +67,6 @@ impl Value {
     pub fn number(self) -> f64 {
         match self {
             Value::Number(x) => x,
-            Value::Integer(n) => n as f64,
             _ => unreachable!("a number setting parses to a number"),
         }
     }

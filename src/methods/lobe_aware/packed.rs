@@ -151,7 +151,7 @@ struct Row {
     depth: Vec<f32>,
     valid: Vec<f32>,
     value: [Vec<f32>; 3],
-    /// Each pixel's noise power (`gather_with_power`), 1 when not asked for.
+    /// Each pixel's noise power (`gather_with_power`); not loaded when not asked for.
     power: Vec<f32>,
     /// Whether every valid pixel of the row has the same sharpness (a row of diffuse pixels):
     /// Eq. 12's sharpness term is then 0 and needs no logarithm.
@@ -174,8 +174,9 @@ impl Row {
         fill(&mut self.inverse, 1.0);
         fill(&mut self.depth, 0.0);
         fill(&mut self.valid, 0.0);
-        fill(&mut self.power, 1.0);
+        // Only a gather asked for its noise power reads it.
         if let Some(p) = power {
+            fill(&mut self.power, 1.0);
             self.power[pad..pad + p.len()].copy_from_slice(p);
         }
         let first = guides.iter().find(|g| g.is_valid()).map_or(1.0, |g| g.sharpness);
