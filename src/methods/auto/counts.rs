@@ -1,7 +1,8 @@
-//! `auto`'s per-pixel sample counts from its second pass on (methods.md §5.1): part of each
-//! pass's samples goes where one sample of the shadowed direct light varies most, the penumbrae.
-//! Each pixel's visibility variance is read off the shadow rays of its neighbourhood, so that one
-//! sample per pixel already shows where the penumbrae lie.
+//! `auto`'s per-pixel sample counts from its second pass on (methods.md §5.1): most of each
+//! pass's samples go where one sample of the shadowed direct light varies most, the penumbrae and
+//! the edges of objects. Each pixel's visibility variance is read off the shadow rays of its
+//! neighbourhood, so that one sample per pixel already shows where the penumbrae lie, and its
+//! own samples' variance shows the rest.
 //!
 //! At a fixed total N, the sum of the pixels' variances sum_p sigma_p^2 / n_p is least for
 //! n_p ∝ sigma_p (a Lagrange multiplier), sigma_p the standard deviation of one sample. Mehta
@@ -62,15 +63,41 @@ pub(super) fn pooled_sigmas(width: usize, radius: usize, light_sums: &[LightSums
         .collect()
 }
 
+/// Per pixel, the standard deviation of one sample's direct light as `auto` estimates it
+/// (`PixelSums::y`), its variance averaged over the 3 x 3 pixels around it (clipped at the
+/// border; pixels with fewer than two such samples count as none).
+pub(super) fn measured_sigmas(width: usize, sums: &[PixelSums]) -> Vec<f64> {
+    let (w, n) = (width.max(1), sums.len());
+    let own: Vec<Option<f64>> = sums.par_iter().map(|s| s.direct_variance()).collect();
+    (0..n)
+        .into_par_iter()
+        .map(|p| {
+            let (mut v, mut k) = (0.0, 0u32);
+            for q in super::window(w, n / w, p, 1) {
+                if let Some(x) = own[q] {
+                    v += x;
+                    k += 1;
+                }
+            }
+            if k > 0 && v.is_finite() {
+                (v / k as f64).sqrt()
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
 /// The samples each pixel should have after a pass whose mean is `target`, or None while the
-/// counts stay uniform (below `opts.adaptive_from_spp`, or no pixel with shadow noise). Each
-/// pixel gets `1 - adaptive_share` of `target`, plus its share of the rest in proportion to
-/// its sigma, at most `adaptive_max_ratio` times `target` (what that cuts off is spread over the
-/// other pixels), and never fewer than it has.
+/// counts stay uniform (below `opts.adaptive_from_spp`, or no pixel with noise). Each pixel gets
+/// the uniform share (`uniform_share`), plus its share of the rest in proportion to its sigma
+/// (the larger of the shadow rays' and, with `adaptive_measured`, its samples'), at most
+/// `adaptive_max_ratio` times `target` (what that cuts off is spread over the other pixels),
+/// and never fewer than it has.
 ///
-/// Only for direct light (`bounces` 0): sigma sees the shadows' noise alone, and with indirect
-/// light, whose noise it misses, taking samples from the rest of the image for the penumbrae made
-/// `cornell` (3 bounces) worse at 256 spp (BENCHMARKS.md, "Noise target").
+/// Only for direct light (`bounces` 0): sigma sees the direct light's noise alone, and with
+/// indirect light, whose noise it misses, taking samples from the rest of the image for the
+/// penumbrae made `cornell` (3 bounces) worse at 256 spp (BENCHMARKS.md, "Noise target").
 pub(super) fn adaptive_targets(
     opts: &AutoOptions,
     target: u32,
@@ -83,16 +110,19 @@ pub(super) fn adaptive_targets(
     if opts.adaptive_from_spp == 0 || target < opts.adaptive_from_spp || lights == 0 || bounces > 0 {
         return None;
     }
-    let sigma = pooled_sigmas(width, opts.adaptive_radius, light_sums, lights);
+    let mut sigma = pooled_sigmas(width, opts.adaptive_radius, light_sums, lights);
+    if opts.adaptive_measured {
+        let measured = measured_sigmas(width, sums);
+        sigma.par_iter_mut().zip(&measured).for_each(|(s, m)| *s = s.max(*m));
+    }
     // A sequential sum: the counts must not depend on the thread count.
     let total: f64 = sigma.iter().sum();
     if !(total > 0.0 && total.is_finite()) {
         return None;
     }
-    let share = opts.adaptive_share.clamp(0.0, 1.0);
     let (t, n) = (target as f64, sigma.len() as f64);
-    let cap = opts.adaptive_max_ratio.max(1.0) * t;
-    let want: Vec<f64> = sigma.par_iter().map(|s| ((1.0 - share) * t + share * t * n * s / total).min(cap)).collect();
+    let (base, cap) = (uniform_share(opts, target) as f64, opts.adaptive_max_ratio.max(1.0) * t);
+    let want: Vec<f64> = sigma.par_iter().map(|s| (base + (t - base) * n * s / total).min(cap)).collect();
     // What the cap cut off goes evenly to the pixels under it, so that the pass keeps its total.
     let under = want.iter().filter(|&&x| x < cap).count();
     let spare = (n * t - want.iter().sum::<f64>()).max(0.0) / under.max(1) as f64;
@@ -121,9 +151,13 @@ fn whole_counts(want: &[f64], total: f64) -> Vec<u32> {
     counts
 }
 
-/// The count every pixel reaches in an adaptive pass of mean `target`, the uniform share.
+/// The count every pixel reaches in an adaptive pass of mean `target`, the uniform share: `1 -
+/// adaptive_share` of it, and at least `adaptive_min_spp` (at most `target`), so that no pixel's
+/// sigma rests on fewer samples than that: one sample shows no variance of its own, and a pixel
+/// the estimate misses would get no more.
 pub(super) fn uniform_share(opts: &AutoOptions, target: u32) -> u32 {
-    ((1.0 - opts.adaptive_share.clamp(0.0, 1.0)) * target as f64).round() as u32
+    let share = ((1.0 - opts.adaptive_share.clamp(0.0, 1.0)) * target as f64).round() as u32;
+    share.max(opts.adaptive_min_spp.min(target))
 }
 
 #[cfg(test)]
@@ -139,9 +173,16 @@ mod tests {
         direct_light_sigma(lights, &|l| (lights[l].a, lights[l].b))
     }
 
-    /// The defaults with each pixel's own samples (no neighbourhood), as the hand counts below.
+    /// Half of each pass adaptive, from the shadow rays alone, with no floor, as the hand
+    /// counts below (`the_uniform_share_...` tests the defaults' floor, `a_silhouette_...` the
+    /// measured sigma).
+    fn half_opts() -> AutoOptions {
+        AutoOptions { adaptive_share: 0.5, adaptive_min_spp: 0, adaptive_measured: false, ..AutoOptions::default() }
+    }
+
+    /// `half_opts` with each pixel's own samples (no neighbourhood).
     fn own_opts() -> AutoOptions {
-        AutoOptions { adaptive_radius: 0, ..AutoOptions::default() }
+        AutoOptions { adaptive_radius: 0, ..half_opts() }
     }
 
     #[test]
@@ -184,7 +225,7 @@ mod tests {
         assert!((s2[1] - (0.64f64 * 2.0 / 9.0 + 0.25 * 0.25).sqrt()).abs() < 1e-12);
         // And the counts follow: with the pass's mean at 4, the edge columns get the most.
         let px = vec![PixelSums { taken: 1, ..PixelSums::default() }; w * h];
-        let opts = AutoOptions { adaptive_radius: 1, ..AutoOptions::default() };
+        let opts = AutoOptions { adaptive_radius: 1, ..half_opts() };
         let t = adaptive_targets(&opts, 4, 0, w, &px, &sums, 1).expect("adaptive from 4 spp");
         assert_eq!((t[0], t[1], t[2], t[3]), (2, 7, 7, 2), "{t:?}");
         assert_eq!(t.iter().sum::<u32>(), 4 * (w * h) as u32);
@@ -219,7 +260,7 @@ mod tests {
             let lights: Vec<LightSums> =
                 (0..n).map(|_| light((10.0 * rng.f() as f64).floor(), 10.0, rng.f() as f64)).collect();
             for target in [4, 16, 64, 1000] {
-                let opts = AutoOptions { adaptive_radius: case % 3, ..AutoOptions::default() };
+                let opts = AutoOptions { adaptive_radius: case % 3, adaptive_min_spp: case as u32 % 7, ..half_opts() };
                 if let Some(t) = adaptive_targets(&opts, target, 0, 1 + case % 5, &sums, &lights, 1) {
                     assert_eq!(t.iter().map(|&c| c as u64).sum::<u64>(), target as u64 * n as u64, "case {case}");
                 }
@@ -264,5 +305,68 @@ mod tests {
         sums[1].taken = 500;
         let t = adaptive_targets(&opts, 256, 0, 2, &sums, &[light(5.0, 10.0, 1.0), light(10.0, 10.0, 1.0)], 1).unwrap();
         assert_eq!(t, [(128.0f64 + 256.0).min(opts.adaptive_max_ratio * 256.0) as u32, 500]);
+    }
+    /// The defaults' uniform share: a tenth of the pass, but never fewer than
+    /// `adaptive_min_spp` samples, and never more than the pass's mean.
+    #[test]
+    fn the_uniform_share_has_a_floor() {
+        let opts = AutoOptions::default();
+        assert_eq!((opts.adaptive_share, opts.adaptive_min_spp), (0.9, 4), "the defaults this test is written for");
+        assert_eq!(uniform_share(&opts, 2), 2);
+        assert_eq!(uniform_share(&opts, 4), 4);
+        assert_eq!(uniform_share(&opts, 16), 4);
+        assert_eq!(uniform_share(&opts, 64), 6);
+        assert_eq!(uniform_share(&opts, 256), 26);
+        // The floor holds in the counts: the noise-free pixels keep it, the noisy one takes the rest.
+        let sums = vec![PixelSums { taken: 4, ..PixelSums::default() }; 4];
+        let lights = [light(10.0, 10.0, 1.0), light(5.0, 10.0, 1.0), light(0.0, 10.0, 1.0), light(10.0, 10.0, 1.0)];
+        let own = AutoOptions { adaptive_radius: 0, adaptive_measured: false, ..opts };
+        assert_eq!(adaptive_targets(&own, 16, 0, 4, &sums, &lights, 1).unwrap(), [4, 52, 4, 4]);
+        let all = AutoOptions { adaptive_share: 1.0, adaptive_min_spp: 0, ..own };
+        assert_eq!(uniform_share(&all, 1 << 20), 0);
+    }
+
+    /// A pixel's measured sigma is the square root of its one-sample variance of y averaged over
+    /// its 3 x 3 window, pixels with fewer than two samples of y counting as none.
+    #[test]
+    fn the_measured_sigma_averages_the_neighbourhood_s_variances() {
+        // Samples y of values {0, 2} (variance 4/3 at n = 3, unbiased) and {1, 1, 1} (none).
+        let noisy = PixelSums { y: 2.0, y2: 4.0, y_n: 3, ..PixelSums::default() };
+        let flat = PixelSums { y: 3.0, y2: 3.0, y_n: 3, ..PixelSums::default() };
+        let one = PixelSums { y: 5.0, y2: 25.0, y_n: 1, ..PixelSums::default() };
+        assert!((noisy.direct_variance().unwrap() - 4.0 / 3.0).abs() < 1e-12);
+        assert_eq!(flat.direct_variance(), Some(0.0));
+        assert_eq!(one.direct_variance(), None);
+        // A row of five: noisy, flat, flat, one, flat.
+        let s = measured_sigmas(5, &[noisy, flat, flat, one, flat]);
+        let expect = [(4.0f64 / 3.0 / 2.0).sqrt(), (4.0f64 / 9.0).sqrt(), 0.0, 0.0, 0.0];
+        for (a, b) in s.iter().zip(expect) {
+            assert!((a - b).abs() < 1e-12, "{s:?}");
+        }
+        // No samples anywhere: no noise, not NaN.
+        assert_eq!(measured_sigmas(2, &[one, one]), [0.0, 0.0]);
+    }
+
+    /// A pixel whose shadow rays see no penumbra but whose own samples vary (an object's edge
+    /// across it) gets the adaptive samples when the measured sigma is on, and none when off.
+    #[test]
+    fn a_silhouette_the_shadow_rays_do_not_see_gets_samples() {
+        // Every pixel's four samples of y are 1, 1, 1, 1; the centre's 0, 0, 2, 2.
+        let flat = PixelSums { taken: 4, y: 4.0, y2: 4.0, y_n: 4, ..PixelSums::default() };
+        let mut wide = vec![flat; 25];
+        wide[12] = PixelSums { y2: 8.0, ..flat };
+        // Lit everywhere: the shadow rays see no noise.
+        let lights = vec![light(10.0, 10.0, 1.0); 25];
+        let opts = AutoOptions { adaptive_radius: 0, ..AutoOptions::default() };
+        let t = adaptive_targets(&opts, 64, 0, 5, &wide, &lights, 1).expect("measured noise");
+        assert_eq!(t.iter().sum::<u32>(), 25 * 64);
+        // The nine pixels whose window holds the centre share the rest of the pass.
+        let base = uniform_share(&opts, 64);
+        for p in 0..25usize {
+            let near = (p % 5).abs_diff(2) <= 1 && (p / 5).abs_diff(2) <= 1;
+            assert!(if near { t[p] > 64 } else { t[p] == base }, "pixel {p}: {t:?}");
+        }
+        let off = AutoOptions { adaptive_measured: false, ..opts };
+        assert!(adaptive_targets(&off, 64, 0, 5, &wide, &lights, 1).is_none());
     }
 }

@@ -4,9 +4,9 @@
 //! place of their normal threshold, every part of the light filtered apart and untextured.
 //!
 //! - **Samples.** Four times as many per pass, the same everywhere in pass 0; from then on
-//!   (`adaptive_from_spp`), in direct-light renders, half of each pass's samples go where one
-//!   sample of the shadowed direct light varies most, read off each pixel's neighbourhood
-//!   (`counts.rs`). The AAF papers' counts (Eq. 21 in both) ask for far more than a preview
+//!   (`adaptive_from_spp`), in direct-light renders, nine tenths of each pass's samples go where
+//!   one sample of the shadowed direct light varies most, read off each pixel's neighbourhood's
+//!   shadow rays and samples (`counts.rs`). The AAF papers' counts (Eq. 21 in both) ask for far more than a preview
 //!   budget has, so they are not used: the widths follow the samples a pixel has instead. One jittered camera path per sample, split at its first
 //!   hit (`sample.rs`): each rectangular light's diffuse direct light as r(x) times visibility
 //!   (Mehta 2012 Eq. 1: r exact, the visibility A / B the only noisy factor), the indirect
@@ -209,7 +209,14 @@ impl AutoStrategy {
         if !self.trace_rounds(ctx, before, uniform, &|p| counts[p])? {
             return Ok(false);
         }
-        self.trace_to(ctx, &|p| counts[p])
+        // The extras in sweeps too, each pixel a like fraction of its own further.
+        for k in 1..=ROUNDS {
+            let step = |p: usize| uniform + (counts[p].saturating_sub(uniform) * k).div_ceil(ROUNDS);
+            if !self.trace_to(ctx, &|p| step(p).min(counts[p]))? {
+                return Ok(false);
+            }
+        }
+        Ok(true)
     }
 
     /// Traces every pixel p up to min(`count(p)`, `target`) in the sweeps of `rounds`: a pass

@@ -45,6 +45,13 @@ pub struct AutoOptions {
     pub adaptive_share: f64,
     /// No pixel asks for more than this many times the pass's mean count.
     pub adaptive_max_ratio: f64,
+    /// A pixel's sigma is also at least the standard deviation of its own samples' plain
+    /// values, their variance averaged over its 3 x 3 neighbourhood (`counts.rs`): noise the
+    /// shadow rays do not see, antialiasing at the edges of objects above all.
+    pub adaptive_measured: bool,
+    /// Every pixel gets at least this many samples (at most the pass's mean) before the
+    /// adaptive part of a pass (`counts::uniform_share`).
+    pub adaptive_min_spp: u32,
     /// From this many samples on, a pixel's frame value is mixed with its own unfiltered mean as
     /// far as the filter's bias, read off their difference, outweighs the mean's variance
     /// (`blend.rs`); 0: never. Fewer samples' variance misses the tail of the indirect light too
@@ -79,8 +86,10 @@ impl Default for AutoOptions {
             r_block: 16,
             adaptive_from_spp: 4,
             adaptive_radius: 2,
-            adaptive_share: 0.5,
+            adaptive_share: 0.9,
             adaptive_max_ratio: 8.0,
+            adaptive_measured: true,
+            adaptive_min_spp: 4,
             blend_from_spp: 64,
             narrow_scale: 0.5,
             narrow_from_spp: 32,
@@ -126,6 +135,8 @@ impl Settable for AutoOptions {
             Setting::integer("adaptive_radius", 0, 16),
             Setting::number("adaptive_share", 0.0, 1.0),
             Setting::number("adaptive_max_ratio", 1.0, 1000.0),
+            Setting::flag("adaptive_measured"),
+            Setting::integer("adaptive_min_spp", 0, 1 << 20),
             Setting::integer("blend_from_spp", 0, 1 << 20),
             Setting::number("narrow_scale", 0.0, 1.0),
             Setting::integer("narrow_from_spp", 0, 1 << 20),
@@ -151,6 +162,8 @@ impl Settable for AutoOptions {
             "adaptive_radius" => self.adaptive_radius = v.integer() as usize,
             "adaptive_share" => self.adaptive_share = v.number(),
             "adaptive_max_ratio" => self.adaptive_max_ratio = v.number(),
+            "adaptive_measured" => self.adaptive_measured = v.flag(),
+            "adaptive_min_spp" => self.adaptive_min_spp = v.integer() as u32,
             "blend_from_spp" => self.blend_from_spp = v.integer() as u32,
             "narrow_scale" => self.narrow_scale = v.number(),
             "narrow_from_spp" => self.narrow_from_spp = v.integer() as u32,

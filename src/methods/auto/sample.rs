@@ -36,6 +36,14 @@ pub(super) struct PixelSums {
     pub x: [f64; 3],
     pub x2: [f64; 3],
     pub x_n: u32,
+    /// Sums of y and y^2 over the `y_n` samples that computed r(x) (`r_due`), y the channel
+    /// mean of a sample's direct light as `auto` estimates it: r(x) times the sample's own
+    /// visibility per rectangular light, plus the rest. Its variance is what `auto`'s direct
+    /// light keeps of one sample's noise before the filter: visibility and the pixel's
+    /// footprint, not the light sample's place on the light (`counts.rs`).
+    pub y: f64,
+    pub y2: f64,
+    pub y_n: u32,
 }
 
 impl Default for PixelSums {
@@ -53,6 +61,9 @@ impl Default for PixelSums {
             x: [0.0; 3],
             x2: [0.0; 3],
             x_n: 0,
+            y: 0.0,
+            y2: 0.0,
+            y_n: 0,
         }
     }
 }
@@ -89,6 +100,24 @@ impl PixelSums {
         }
         let n = self.x_n as f64;
         (0..3).map(|c| (self.x2[c] / n - (self.x[c] / n).powi(2)).max(0.0) / (n - 1.0)).sum()
+    }
+
+    fn add_y(&mut self, y: Vec3) {
+        let y = ((y.x + y.y + y.z) / 3.0) as f64;
+        if y.is_finite() {
+            self.y_n += 1;
+            self.y += y;
+            self.y2 += y * y;
+        }
+    }
+
+    /// The variance of one sample's y (`PixelSums::y`); None below two samples.
+    pub(super) fn direct_variance(&self) -> Option<f64> {
+        if self.y_n < 2 {
+            return None;
+        }
+        let n = self.y_n as f64;
+        Some((self.y2 / n - (self.y / n).powi(2)).max(0.0) * n / (n - 1.0))
     }
 
     /// Notes what camera sample `index` saw (None: nothing, or a light), while `index` is among
@@ -166,6 +195,9 @@ impl Sampling<'_> {
                 px.rest[c] += background[c] as f64;
             }
             px.add_x(background);
+            if r_due {
+                px.add_y(background);
+            }
             return (1, 0);
         };
         let analysis = index < self.analysis_spp;
@@ -178,16 +210,20 @@ impl Sampling<'_> {
         let mut rest = emitted(scene, &hit, wo);
         // The rect lights' diffuse light as plain Monte Carlo gives it (for `x` alone).
         let mut diffuse_direct = Vec3::ZERO;
+        // The rect lights' diffuse light as r(x) times this sample's visibility (for `y`).
+        let mut shadowed_r = Vec3::ZERO;
         // Every light draws its dimension pair, used or not, so that the streams stay aligned.
         for (light, slot) in scene.lights.iter().zip(self.slot) {
             let dims = LightDims::draw(light, &mut sampler);
             let u = dims.light;
+            let mut r_here = Vec3::ZERO;
             if let (Light::Rect(rect), Some(l)) = (light, slot) {
                 let s = &mut lights[*l];
                 if r_due {
                     s.r_n += 1;
                     let r = unshadowed(rect, &hit, wo, brdf.kd);
                     if !emitter && r.is_finite() {
+                        r_here = r.as_vec3();
                         for c in 0..3 {
                             s.r[c] += r[c];
                         }
@@ -213,6 +249,7 @@ impl Sampling<'_> {
                     if visible {
                         rest += g;
                         diffuse_direct += u;
+                        shadowed_r += r_here;
                     }
                 }
                 (Light::Rect(_), None) => {}
@@ -229,6 +266,9 @@ impl Sampling<'_> {
             }
         } else {
             dropped += 1;
+        }
+        if r_due {
+            px.add_y(rest + shadowed_r);
         }
         let mut x = rest + diffuse_direct;
         if indirect {

@@ -194,9 +194,10 @@ fn ambient_occlusion_renders_as_aaf() {
     assert_eq!(fa.last().unwrap().color, fb.last().unwrap().color);
 }
 
-/// From `adaptive_from_spp` (pass 1) on, the area-lit box's penumbrae get more samples than its lit and
-/// umbral pixels, each pass keeps its mean count (within the rounding), every pixel keeps at least
-/// the uniform share, and the stream still converges to the reference with the same energy.
+/// From the pass beyond `adaptive_min_spp` (pass 2) on, the area-lit box's penumbrae and edges
+/// get more samples than its flat lit and umbral pixels, each pass keeps its mean count (within
+/// the rounding), every pixel keeps at least the uniform share, and the stream still converges
+/// to the reference with the same energy.
 #[test]
 fn adaptive_counts_sample_the_penumbrae_and_keep_the_total() {
     let s = builtin("cornell", 32, 32);
@@ -207,18 +208,20 @@ fn adaptive_counts_sample_the_penumbrae_and_keep_the_total() {
     for (k, fr) in f.iter().enumerate() {
         let target = (1u32 << (2 * k)) as f32;
         let mean_spp = fr.spp.iter().sum::<f32>() / fr.spp.len() as f32;
-        if k < 1 {
-            assert!(fr.spp.iter().all(|&n| n == target), "pass {k}: one sample everywhere");
+        // Pass 1's four samples are all the floor (`adaptive_min_spp`): none adapt yet.
+        if target <= j.auto.adaptive_min_spp as f32 {
+            assert!(fr.spp.iter().all(|&n| n == target), "pass {k}: {target} samples everywhere");
             continue;
         }
         assert!((mean_spp / target - 1.0).abs() < 0.02, "pass {k}: mean {mean_spp} vs {target}");
         let min = fr.spp.iter().cloned().fold(f32::INFINITY, f32::min);
         let max = fr.spp.iter().cloned().fold(0.0, f32::max);
-        assert!(min >= target / 2.0 - 0.5, "pass {k}: min {min}");
+        let floor = super::counts::uniform_share(&j.auto, target as u32) as f32;
+        assert!(min >= floor && floor < target / 2.0, "pass {k}: min {min}, floor {floor}");
         assert!(max >= 2.0 * target, "pass {k}: max {max}: the penumbrae get more");
     }
-    // The pixels with the most samples are the penumbrae: their unfiltered visibility is
-    // neither 0 nor 1, i.e. their value lies strictly between the fully lit and shadowed ones.
+    // The pixels with the most samples lie at a shadow's or an object's edge: their
+    // neighbourhood's unfiltered values spread.
     let last = f.last().unwrap();
     let raw = last.unfiltered_color();
     let most = (0..raw.len()).max_by(|&a, &b| last.spp[a].total_cmp(&last.spp[b])).unwrap();
@@ -341,6 +344,76 @@ fn a_pass_cut_by_the_budget_leaves_even_counts() {
                 lo >= before as f32 && hi <= target as f32 && hi - lo <= step as f32,
                 "pass {pass} cut at {k}/3 rounds: counts from {lo} to {hi}, rounds of {step}"
             );
+        }
+    }
+}
+
+/// A small lit square on a black background, no occluder: the shadow rays see no noise
+/// anywhere, yet the pixels across the square's edge vary from sample to sample (its coverage
+/// of each). With the measured sigma (`adaptive_measured`) they get the adaptive samples and
+/// the flat pixels keep the uniform share; without it the counts stay uniform.
+#[test]
+fn adaptive_counts_sample_an_object_s_edge_the_shadow_rays_do_not_see() {
+    // The camera between a broad light above and the square below it: the square spans pixels
+    // 5.07 to 18.93 of 24 each way, so its edges cross columns and rows 5 and 18.
+    let mut b = SceneBuilder::new(CameraDesc {
+        position: Vec3::new(0.0, 1.5, 0.0),
+        look_at: Vec3::ZERO,
+        up: Vec3::Z,
+        vertical_fov_deg: 60.0,
+        width: 24,
+        height: 24,
+    });
+    let m = b.add_material(Material::Lambertian { albedo: Texture::Constant(Vec3::splat(0.5)) });
+    let o = b.new_object();
+    let (c, u, v) = (Vec3::new(-0.5, 0.0, -0.5), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 1.0));
+    b.geometry.push([c, c + u, c + u + v], None, None, m, o);
+    b.geometry.push([c, c + u + v, c + v], None, None, m, o);
+    let (corner, eu, ev) = (Vec3::new(-2.0, 2.0, -2.0), Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 4.0));
+    b.add_rect_light(RectLight::new(corner, eu, ev, Vec3::splat(1.0), EmissionProfile::Uniform));
+    let scene = Arc::new(b.build());
+    let mut j = job(scene, Method::Auto, 3, 7, 0);
+    let f = all_frames(&j).pop().unwrap();
+    let (w, spp) = (24usize, &f.spp);
+    assert_eq!(spp.iter().sum::<f32>(), 16.0 * (w * w) as f32, "the pass keeps its total");
+    // Within a pixel of an edge (the measured variance is pooled over 3 x 3 pixels).
+    let near_edge = |i: usize| i.abs_diff(5) <= 1 || i.abs_diff(18) <= 1;
+    let on_square = |i: usize| (4..=19).contains(&i);
+    let edge = |p: usize| on_square(p % w) && on_square(p / w) && (near_edge(p % w) || near_edge(p / w));
+    let most = (0..w * w).max_by(|&a, &b| spp[a].total_cmp(&spp[b])).unwrap();
+    assert!(spp[most] > 32.0 && edge(most), "pixel {most} with {} samples is not at the edge", spp[most]);
+    // The square's centre and the background: flat, at the floor (one more where the whole
+    // counts round up).
+    let floor = super::counts::uniform_share(&j.auto, 16) as f32;
+    for p in (0..w * w).filter(|&p| !edge(p)) {
+        assert!(spp[p] <= floor + 1.0, "pixel {p} off the edge has {} samples", spp[p]);
+    }
+    j.auto.adaptive_measured = false;
+    assert!(all_frames(&j).pop().unwrap().spp.iter().all(|&n| n == 16.0), "no noise the shadow rays see");
+}
+
+/// A pass the deadline cuts in its adaptive extras has taken every pixel a like fraction of
+/// the way from the uniform share to its own count (the extras sweep the image in rounds too):
+/// cut in round k + 1, each pixel holds the count of round k or k + 1, not its full count in a
+/// band of rows beside none in the rest. Direct light, pass 2 (16 samples a pixel, 4 uniform).
+#[test]
+fn a_pass_cut_in_its_adaptive_extras_leaves_like_fractions() {
+    use crate::pipeline::job::tests::cut_pass_after_checks;
+    let mut j = job(builtin("cornell", 48, 36), Method::Auto, 3, 5, 0);
+    let pixels = (j.width() * j.height()) as i64;
+    let full = all_frames(&j).pop().unwrap().spp;
+    let uniform = super::counts::uniform_share(&j.auto, 16);
+    assert_eq!(uniform, 4, "the defaults this test is written for");
+    assert!(full.iter().any(|&n| n >= 32.0), "some pixels adapt");
+    let round = |p: usize, k: u32| (uniform + ((full[p] as u32 - uniform) * k).div_ceil(4)) as f32;
+    for k in 0..4u32 {
+        j.halt = Halt::passes(4);
+        // One sweep up to the uniform share (nothing to add: pass 1 left four samples), then
+        // k whole rounds of the extras and half of the next.
+        let cut = cut_pass_after_checks(2, pixels * (1 + k as i64) + pixels / 2, || all_frames(&j)).pop().unwrap();
+        assert!(!cut.stats.pass_complete && cut.stats.pass == 2, "cut in round {}", k + 1);
+        for (p, &n) in cut.spp.iter().enumerate() {
+            assert!(n >= round(p, k) && n <= round(p, k + 1), "round {}: pixel {p} has {n} of {}", k + 1, full[p]);
         }
     }
 }
