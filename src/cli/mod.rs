@@ -189,8 +189,8 @@ pub struct RenderArgs {
     /// directory).
     #[arg(long)]
     pub mesh_root: Option<PathBuf>,
-    /// Set a method option by name, GROUP.NAME=VALUE (repeatable; groups `auto`, `bandwidth`
-    /// and `lobe`, e.g. `auto.narrow_scale=0.25`), for experiments; `wedge render` only (a
+    /// Set a method option by name, GROUP.NAME=VALUE (repeatable; groups `auto`, `bandwidth`,
+    /// `lobe`, `aaf` and `indirect`, e.g. `auto.narrow_scale=0.25`), for experiments; `wedge render` only (a
     /// server takes no options beyond its request's).
     #[arg(long = "set", value_name = "GROUP.NAME=VALUE")]
     pub settings: Vec<String>,

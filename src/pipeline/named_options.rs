@@ -2,6 +2,8 @@
 //! are `settings`'; this module knows the groups).
 use super::job::RenderJob;
 use super::settings::{parse, Settable, Setting};
+use crate::methods::aaf_indirect::options::IndirectOptions;
+use crate::methods::aaf_shadows::options::AafOptions;
 use crate::methods::auto::options::AutoOptions;
 use crate::methods::bandwidth::options::BandwidthOptions;
 use crate::methods::lobe_aware::options::LobeAwareOptions;
@@ -22,40 +24,63 @@ pub fn all_settings() -> Vec<(String, Setting)> {
     fn of<T: Settable>() -> impl Iterator<Item = (String, Setting)> {
         T::settings().iter().map(|s| (format!("{}.{}", T::GROUP, s.name), *s))
     }
-    of::<AutoOptions>().chain(of::<BandwidthOptions>()).chain(of::<LobeAwareOptions>()).collect()
+    (of::<AutoOptions>().chain(of::<BandwidthOptions>()).chain(of::<LobeAwareOptions>()))
+        .chain(of::<AafOptions>().chain(of::<IndirectOptions>()))
+        .collect()
 }
 
 impl RenderJob {
     /// Applies one `GROUP.FIELD=VALUE` assignment (see `settings`).
     pub fn set(&mut self, assignment: &str) -> Result<(), String> {
-        assign(&mut self.auto, &mut self.bandwidth, &mut self.lobe, assignment)
+        let mut groups = Groups {
+            auto: &mut self.auto,
+            bandwidth: &mut self.bandwidth,
+            lobe: &mut self.lobe,
+            aaf: &mut self.aaf,
+            indirect: &mut self.indirect,
+        };
+        groups.assign(assignment)
     }
 }
 
 /// Whether `assignment` would be accepted, without a job to apply it to.
 pub fn check(assignment: &str) -> Result<(), String> {
-    assign(&mut Default::default(), &mut Default::default(), &mut Default::default(), assignment)
+    let (mut auto, mut bandwidth, mut lobe, mut aaf, mut indirect) = Default::default();
+    let mut groups =
+        Groups { auto: &mut auto, bandwidth: &mut bandwidth, lobe: &mut lobe, aaf: &mut aaf, indirect: &mut indirect };
+    groups.assign(assignment)
 }
 
-fn assign(
-    auto: &mut AutoOptions,
-    bandwidth: &mut BandwidthOptions,
-    lobe: &mut LobeAwareOptions,
-    assignment: &str,
-) -> Result<(), String> {
-    let (key, text) = assignment
-        .split_once('=')
-        .ok_or_else(|| format!("{assignment:?}: expected NAME=VALUE, e.g. auto.narrow_scale=0.25"))?;
-    let key = key.trim();
-    let (group, name) =
-        key.split_once('.').ok_or_else(|| format!("{key:?}: expected GROUP.NAME, e.g. auto.narrow_scale"))?;
-    match group {
-        "auto" => set_in(auto, name, text),
-        "bandwidth" => set_in(bandwidth, name, text),
-        "lobe" => set_in(lobe, name, text),
-        _ => Err(format!("{key}: no group {group:?}; the groups are auto, bandwidth, lobe")),
+/// The option groups a job carries, by the names `--set` gives them.
+struct Groups<'a> {
+    auto: &'a mut AutoOptions,
+    bandwidth: &'a mut BandwidthOptions,
+    lobe: &'a mut LobeAwareOptions,
+    aaf: &'a mut AafOptions,
+    indirect: &'a mut IndirectOptions,
+}
+
+impl Groups<'_> {
+    fn assign(&mut self, assignment: &str) -> Result<(), String> {
+        let (key, text) = assignment
+            .split_once('=')
+            .ok_or_else(|| format!("{assignment:?}: expected NAME=VALUE, e.g. auto.narrow_scale=0.25"))?;
+        let key = key.trim();
+        let (group, name) =
+            key.split_once('.').ok_or_else(|| format!("{key:?}: expected GROUP.NAME, e.g. auto.narrow_scale"))?;
+        match group {
+            "auto" => set_in(self.auto, name, text),
+            "bandwidth" => set_in(self.bandwidth, name, text),
+            "lobe" => set_in(self.lobe, name, text),
+            "aaf" => set_in(self.aaf, name, text),
+            "indirect" => set_in(self.indirect, name, text),
+            _ => Err(format!("{key}: no group {group:?}; the groups are {GROUPS}")),
+        }
     }
 }
+
+/// The groups' names, for messages.
+const GROUPS: &str = "auto, bandwidth, lobe, aaf, indirect";
 
 #[cfg(test)]
 mod tests {
@@ -80,11 +105,17 @@ mod tests {
         j.set("auto.narrow_linear=false").unwrap();
         assert!(!j.auto.narrow_linear);
         j.set("bandwidth.visibility=control-variate").unwrap();
+        j.set("aaf.light_sigma=profile").unwrap();
+        assert_eq!(j.aaf.light_sigma, crate::methods::aaf_shadows::options::LightSigma::Profile);
+        j.set("aaf.k=2").unwrap();
+        assert_eq!(j.aaf.constants.k, 2.0);
+        j.set("indirect.kernel_scale=0.25").unwrap();
+        assert_eq!(j.indirect.kernel_scale, 0.25);
         assert_eq!(j.bandwidth.visibility, crate::methods::bandwidth::options::Visibility::ControlVariate);
         for (bad, says) in [
             ("auto.narrow_scale", "expected NAME=VALUE"),
             ("narrow_scale=1", "expected GROUP.NAME"),
-            ("aaf.mu0=1", "no group"),
+            ("shadows.mu0=1", "no group"),
             ("auto.nope=1", "no such setting"),
             ("auto.narrow_scale=2", "a number from 0 to 1"),
             ("auto.narrow_scale=NaN", "a number from 0 to 1"),
@@ -103,15 +134,19 @@ mod tests {
     }
 
     /// Every setting at each of its limits renders a finite image (with a bounce, on a scene
-    /// the method acts on: `cornell` for `auto`, `cornell-glossy` for `lobe-aware`,
-    /// `sky-spheres` for `bandwidth`).
+    /// the method acts on: `cornell` for `auto` (and without bounces), `cornell-glossy` for
+    /// `lobe-aware`, `sky-spheres` for `bandwidth`, `grids` (direct light) for `aaf`'s soft
+    /// shadows and `cornell` with a bounce for its indirect light).
     #[test]
     fn every_setting_at_its_limits_renders_a_finite_image() {
         for (key, setting) in all_settings() {
-            let (scene, method) = match key.split('.').next() {
-                Some("auto") => ("cornell", Method::Auto),
-                Some("lobe") => ("cornell-glossy", Method::LobeAware),
-                _ => ("sky-spheres", Method::Bandwidth),
+            // `auto`'s sample counts adapt in direct-light renders only: those too.
+            let (scene, method, bounces): (&str, Method, &[u32]) = match key.split('.').next() {
+                Some("auto") => ("cornell", Method::Auto, &[0, 1][..]),
+                Some("lobe") => ("cornell-glossy", Method::LobeAware, &[1]),
+                Some("aaf") => ("grids", Method::Aaf, &[0]),
+                Some("indirect") => ("cornell", Method::Aaf, &[1]),
+                _ => ("sky-spheres", Method::Bandwidth, &[1]),
             };
             let values: Vec<String> = match setting.kind {
                 Kind::Number { lo, hi } => vec![lo.to_string(), hi.to_string()],
@@ -119,11 +154,13 @@ mod tests {
                 Kind::Flag => vec!["false".into(), "true".into()],
                 Kind::Choice(words) => words.iter().map(|w| w.to_string()).collect(),
             };
-            for v in values {
+            for (v, &b) in values.iter().flat_map(|v| bounces.iter().map(move |b| (v, b))) {
                 let mut j = job(scene, method);
+                j.bounces = b;
                 j.set(&format!("{key}={v}")).unwrap();
                 for frame in all_frames(&j) {
-                    assert!(frame.color.iter().flatten().all(|x| x.is_finite() && *x >= 0.0), "{key}={v}: not finite");
+                    let finite = frame.color.iter().flatten().all(|x| x.is_finite() && *x >= 0.0);
+                    assert!(finite, "{key}={v}, {b} bounces: not finite");
                 }
             }
         }

@@ -1,5 +1,6 @@
 //! The options of AAF indirect light: plain data the render job carries (`pipeline::job`).
 use super::params::IndirectConstants;
+use crate::pipeline::settings::{Settable, Setting, Value};
 use crate::render::filter::FilterOptions;
 
 /// Parameters; the defaults are the paper's (Sec. 4-6).
@@ -46,6 +47,48 @@ impl Default for IndirectOptions {
                 tangent_plane: false,
             },
             fixed_filter_px: 4.0,
+        }
+    }
+}
+
+/// `--set indirect.NAME=VALUE`: the paper's constants and the schedule. The limits keep a test
+/// render at each of them to seconds (mu and the sample bounds set the samples).
+impl Settable for IndirectOptions {
+    const GROUP: &'static str = "indirect";
+
+    fn settings() -> &'static [Setting] {
+        const SETTINGS: &[Setting] = &[
+            Setting::number("alpha", 0.01, 10.0),
+            Setting::number("omega_h_diffuse", 0.1, 100.0),
+            Setting::number("gamma_diffuse", 0.01, 10.0),
+            Setting::number("min_samples", 1.0, 256.0),
+            Setting::number("max_samples", 1.0, 1000.0),
+            Setting::number("z_min_fraction", 0.0, 1.0),
+            Setting::number("mu0", 0.1, 8.0),
+            Setting::integer("initial_samples", 1, 64),
+            Setting::integer("preview_samples", 1, 64),
+            Setting::number("kernel_scale", 0.0, 16.0),
+            Setting::flag("foreshortening"),
+            Setting::number("fixed_filter_px", 0.0, 32.0),
+        ];
+        SETTINGS
+    }
+
+    fn apply(&mut self, name: &str, v: Value) {
+        match name {
+            "alpha" => self.constants.alpha = v.number(),
+            "omega_h_diffuse" => self.constants.omega_h_diffuse = v.number(),
+            "gamma_diffuse" => self.constants.gamma_diffuse = v.number(),
+            "min_samples" => self.constants.min_samples = v.number(),
+            "max_samples" => self.constants.max_samples = v.number(),
+            "z_min_fraction" => self.constants.z_min_fraction = v.number(),
+            "mu0" => self.mu0 = v.number(),
+            "initial_samples" => self.initial_samples = v.integer() as u32,
+            "preview_samples" => self.preview_samples = v.integer() as u32,
+            "kernel_scale" => self.kernel_scale = v.number(),
+            "foreshortening" => self.foreshortening = v.flag(),
+            "fixed_filter_px" => self.fixed_filter_px = v.number(),
+            _ => unreachable!("{name} is in `settings`"),
         }
     }
 }

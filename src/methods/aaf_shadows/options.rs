@@ -1,6 +1,7 @@
 //! The options of AAF soft shadows: plain data the render job carries (`pipeline::job`), so it
 //! imports only the core and the method's own constants.
 use super::params::AafConstants;
+use crate::pipeline::settings::{Settable, Setting, Value};
 use crate::render::filter::FilterOptions;
 
 /// Parameters. k, alpha, the 9 sparse samples, the 5-pixel fill and the 20-degree normal check
@@ -84,4 +85,48 @@ pub enum LightSigma {
     Emitted,
     /// The profile's own sigma, whatever the rectangle cuts off: the authors' code.
     Profile,
+}
+
+/// `--set aaf.NAME=VALUE`: the paper's constants and the schedule. The limits keep a test
+/// render at each of them to seconds (mu and the cap set the samples, as mu^2 times the cap).
+impl Settable for AafOptions {
+    const GROUP: &'static str = "aaf";
+
+    fn settings() -> &'static [Setting] {
+        const SETTINGS: &[Setting] = &[
+            Setting::number("k", 0.1, 20.0),
+            Setting::number("alpha", 0.1, 10.0),
+            Setting::number("mu0", 0.25, 8.0),
+            Setting::number("first_mu", 0.25, 8.0),
+            Setting::choice("light_sigma", &["emitted", "profile"]),
+            Setting::number("uniform_light_mu_scale", 0.25, 8.0),
+            Setting::integer("sparse_samples", 1, 64),
+            Setting::integer("preview_samples", 1, 64),
+            Setting::number("cap", 1.0, 1000.0),
+            Setting::integer("fill_radius", 0, 16),
+            Setting::flag("foreshortening"),
+            Setting::number("fixed_filter_px", 0.0, 32.0),
+            Setting::number("antialias_error", 0.0, 1.0),
+        ];
+        SETTINGS
+    }
+
+    fn apply(&mut self, name: &str, v: Value) {
+        match name {
+            "k" => self.constants.k = v.number(),
+            "alpha" => self.constants.alpha = v.number(),
+            "mu0" => self.mu0 = v.number(),
+            "first_mu" => self.first_mu = v.number(),
+            "light_sigma" => self.light_sigma = [LightSigma::Emitted, LightSigma::Profile][v.choice()],
+            "uniform_light_mu_scale" => self.uniform_light_mu_scale = v.number(),
+            "sparse_samples" => self.sparse_samples = v.integer() as u32,
+            "preview_samples" => self.preview_samples = v.integer() as u32,
+            "cap" => self.cap = v.number(),
+            "fill_radius" => self.fill_radius = v.integer() as u32,
+            "foreshortening" => self.foreshortening = v.flag(),
+            "fixed_filter_px" => self.fixed_filter_px = v.number(),
+            "antialias_error" => self.antialias_error = v.number(),
+            _ => unreachable!("{name} is in `settings`"),
+        }
+    }
 }
