@@ -1,6 +1,7 @@
 //! Lights: one-sided rectangular area lights (uniform or Gaussian emission), point lights and
 //! the environment (`environment`).
 pub use super::environment::EnvironmentLight;
+use super::far_rule::FarRule;
 use glam::Vec3;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -28,7 +29,7 @@ pub struct RectLight {
     sigma: f32,
     /// Gaussian lights: the nodes of an 8 x 8 Gauss-Legendre rule over the rectangle with their
     /// weights (area and profile folded in), for the irradiance of distant receivers.
-    gauss_rule: Vec<(glam::DVec3, f64)>,
+    gauss_rule: FarRule,
     /// Gaussian rectangles: where to place light samples so that their density follows the
     /// profile (`ProfileSampler`); None for uniform lights and skewed parallelograms, which
     /// are sampled uniformly by area.
@@ -176,7 +177,7 @@ impl RectLight {
             radiance,
             profile,
             sigma,
-            gauss_rule: Vec::new(),
+            gauss_rule: FarRule::default(),
             profile_sampler: None,
         }
         .with_profile_tables()
@@ -190,12 +191,12 @@ impl RectLight {
         if self.profile == EmissionProfile::Gaussian && orthogonal {
             let (len_u, len_v, sigma) = (self.edge_u.length() as f64, self.edge_v.length() as f64, self.sigma as f64);
             self.profile_sampler = Some(Box::new(ProfileSampler::new(len_u, len_v, sigma)));
-            self.gauss_rule = gaussian_rule(
+            self.gauss_rule = FarRule::new(&gaussian_rule(
                 self.center().as_dvec3(),
                 self.edge_u.as_dvec3(),
                 self.edge_v.as_dvec3(),
                 self.sigma as f64,
-            );
+            ));
         }
         self
     }
@@ -360,12 +361,7 @@ impl RectLight {
         if self.gauss_rule.is_empty() || !(height >= 0.8 * self.weighted_diagonal()) || !sees_all {
             return None;
         }
-        let sum = self.gauss_rule.iter().map(|&(y, w)| {
-            let d = y - xd;
-            let r2 = d.length_squared();
-            w * nd.dot(d).max(0.0) / (r2 * r2)
-        });
-        Some(height * sum.sum::<f64>())
+        Some(height * self.gauss_rule.sum(xd, nd))
     }
 
     /// Irradiance of a Gaussian light by adaptive quadrature: the integrand is smooth on the

@@ -2,7 +2,7 @@
 //! imports only within `render`.
 //!
 //! One file per concept: `camera` (the view), `sampler`, `geometry` (triangles and BVH;
-//! `wide_bvh` its traversal), `texture`, `material`, `light` (with `environment` and its `distribution`), `scene` (the compiled scene, no
+//! `wide_bvh` its traversal), `texture`, `material`, `light` (with `environment` and its `distribution`, and `far_rule`, a Gaussian light's quadrature), `scene` (the compiled scene, no
 //! camera), `integrator` (radiance along a path), `gbuffer` (one primary hit per pixel), `aovs` (denoiser inputs) and
 //! `filter` (the G-buffer-guided Gaussian gather the methods filter with); `huge_pages`
 //! allocates large arrays.
@@ -10,6 +10,7 @@ pub mod aovs;
 pub mod camera;
 pub mod distribution;
 pub mod environment;
+pub mod far_rule;
 pub mod fast_math;
 pub mod filter;
 pub mod frame_basis;
