@@ -6,9 +6,10 @@
 //! - **Samples.** Four times as many per pass, the same everywhere in pass 0; from then on
 //!   (`adaptive_from_spp`), in direct-light renders, nine tenths of each pass's samples go where
 //!   one sample of the shadowed direct light varies most, read off each pixel's neighbourhood's
-//!   shadow rays and samples (`counts.rs`). The AAF papers' counts (Eq. 21 in both) ask for far more than a preview
-//!   budget has, so they are not used: the widths follow the samples a pixel has instead. One jittered camera path per sample, split at its first
-//!   hit (`sample.rs`): each rectangular light's diffuse direct light as r(x) times visibility
+//!   shadow rays and samples (`counts.rs`). The AAF papers' counts (Eq. 21 in both) ask for
+//!   far more than a preview budget has, so they are not used: the widths follow the samples a
+//!   pixel has instead. One jittered camera path per sample, split at its first hit
+//!   (`sample.rs`): each rectangular light's diffuse direct light as r(x) times visibility
 //!   (Mehta 2012 Eq. 1: r exact, the visibility A / B the only noisy factor), the indirect
 //!   light under the cosine lobe and under the glossy lobe without textures (Mehta 2013
 //!   Sec. 5), and the rest (emission, point lights, glossy direct light) unfiltered.

@@ -122,24 +122,31 @@ fn the_filter_lowers_the_error_at_equal_samples() {
     }
 }
 
+/// A Lambertian square (albedo 0.5) of half-side `half` on the y = 0 plane, centred on the
+/// origin, under `light`, seen straight down from height `camera_y` (60 degrees, `px` x `px`).
+fn square_under(light: RectLight, half: f32, camera_y: f32, px: u32) -> Arc<Scene> {
+    let mut b = SceneBuilder::new(CameraDesc {
+        position: Vec3::new(0.0, camera_y, 0.0),
+        look_at: Vec3::ZERO,
+        up: Vec3::Z,
+        vertical_fov_deg: 60.0,
+        width: px,
+        height: px,
+    });
+    let m = b.add_material(Material::Lambertian { albedo: Texture::Constant(Vec3::splat(0.5)) });
+    let o = b.new_object();
+    let (c, u, v) = (Vec3::new(-half, 0.0, -half), Vec3::new(2.0 * half, 0.0, 0.0), Vec3::new(0.0, 0.0, 2.0 * half));
+    b.geometry.push([c, c + u, c + u + v], None, None, m, o);
+    b.geometry.push([c, c + u + v, c + v], None, None, m, o);
+    b.add_rect_light(light);
+    Arc::new(b.build())
+}
+
 /// A Lambertian floor (albedo 0.5) under a square uniform light (out of view), nothing else: no occluder, so
 /// the visibility is exactly 1 and the direct light is r(x), the closed form (Mehta 2012
 /// Eq. 1), at one sample per pixel, without noise. Pixel centres make each pixel one point.
 #[test]
 fn without_occluders_the_direct_light_is_exact_at_one_sample() {
-    let mut b = SceneBuilder::new(CameraDesc {
-        position: Vec3::new(0.0, 3.0, 0.0),
-        look_at: Vec3::ZERO,
-        up: Vec3::Z,
-        vertical_fov_deg: 60.0,
-        width: 12,
-        height: 12,
-    });
-    let m = b.add_material(Material::Lambertian { albedo: Texture::Constant(Vec3::splat(0.5)) });
-    let o = b.new_object();
-    let (c, u, v) = (Vec3::new(-4.0, 0.0, -4.0), Vec3::new(8.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 8.0));
-    b.geometry.push([c, c + u, c + u + v], None, None, m, o);
-    b.geometry.push([c, c + u + v, c + v], None, None, m, o);
     let light = RectLight::new(
         Vec3::new(2.0, 1.0, -0.5),
         Vec3::new(1.0, 0.0, 0.0),
@@ -147,8 +154,7 @@ fn without_occluders_the_direct_light_is_exact_at_one_sample() {
         Vec3::splat(3.0),
         EmissionProfile::Uniform,
     );
-    b.add_rect_light(light.clone());
-    let scene = Arc::new(b.build());
+    let scene = square_under(light.clone(), 4.0, 3.0, 12);
     let mut j = job(scene.clone(), Method::Auto, 1, 5, 0);
     j.pixel_centers = true;
     let f = all_frames(&j).pop().unwrap();
@@ -356,22 +362,8 @@ fn a_pass_cut_by_the_budget_leaves_even_counts() {
 fn adaptive_counts_sample_an_object_s_edge_the_shadow_rays_do_not_see() {
     // The camera between a broad light above and the square below it: the square spans pixels
     // 5.07 to 18.93 of 24 each way, so its edges cross columns and rows 5 and 18.
-    let mut b = SceneBuilder::new(CameraDesc {
-        position: Vec3::new(0.0, 1.5, 0.0),
-        look_at: Vec3::ZERO,
-        up: Vec3::Z,
-        vertical_fov_deg: 60.0,
-        width: 24,
-        height: 24,
-    });
-    let m = b.add_material(Material::Lambertian { albedo: Texture::Constant(Vec3::splat(0.5)) });
-    let o = b.new_object();
-    let (c, u, v) = (Vec3::new(-0.5, 0.0, -0.5), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 1.0));
-    b.geometry.push([c, c + u, c + u + v], None, None, m, o);
-    b.geometry.push([c, c + u + v, c + v], None, None, m, o);
     let (corner, eu, ev) = (Vec3::new(-2.0, 2.0, -2.0), Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 4.0));
-    b.add_rect_light(RectLight::new(corner, eu, ev, Vec3::splat(1.0), EmissionProfile::Uniform));
-    let scene = Arc::new(b.build());
+    let scene = square_under(RectLight::new(corner, eu, ev, Vec3::splat(1.0), EmissionProfile::Uniform), 0.5, 1.5, 24);
     let mut j = job(scene, Method::Auto, 3, 7, 0);
     let f = all_frames(&j).pop().unwrap();
     let (w, spp) = (24usize, &f.spp);
