@@ -13,6 +13,7 @@
 use super::options::AutoOptions;
 use super::sample::{LightSums, PixelSums};
 use crate::methods::aaf_shadows::ratio;
+use crate::pipeline::allocation;
 use crate::pipeline::film::mean;
 use rayon::prelude::*;
 
@@ -67,30 +68,13 @@ pub(super) fn pooled_sigmas(width: usize, radius: usize, light_sums: &[LightSums
 /// (`PixelSums::y`), its variance averaged over the 3 x 3 pixels around it (clipped at the
 /// border; pixels with fewer than two such samples count as none).
 pub(super) fn measured_sigmas(width: usize, sums: &[PixelSums]) -> Vec<f64> {
-    let (w, n) = (width.max(1), sums.len());
     let own: Vec<Option<f64>> = sums.par_iter().map(|s| s.direct_variance()).collect();
-    (0..n)
-        .into_par_iter()
-        .map(|p| {
-            let (mut v, mut k) = (0.0, 0u32);
-            for q in super::window(w, n / w, p, 1) {
-                if let Some(x) = own[q] {
-                    v += x;
-                    k += 1;
-                }
-            }
-            if k > 0 && v.is_finite() {
-                (v / k as f64).sqrt()
-            } else {
-                0.0
-            }
-        })
-        .collect()
+    allocation::pooled_sigmas(width, &own, 1)
 }
 
 /// The samples each pixel should have after a pass whose mean is `target`, or None while the
 /// counts stay uniform (below `opts.adaptive_from_spp`, or no pixel with noise). Each pixel gets
-/// the uniform share (`uniform_share`), plus its share of the rest in proportion to its sigma
+/// the uniform share (`allocation::Proportional::uniform_share`), plus its share of the rest in proportion to its sigma
 /// (the larger of the shadow rays' and, with `adaptive_measured`, its samples'), at most
 /// `adaptive_max_ratio` times `target` (what that cuts off is spread over the other pixels),
 /// and never fewer than it has.
@@ -115,49 +99,8 @@ pub(super) fn adaptive_targets(
         let measured = measured_sigmas(width, sums);
         sigma.par_iter_mut().zip(&measured).for_each(|(s, m)| *s = s.max(*m));
     }
-    // A sequential sum: the counts must not depend on the thread count.
-    let total: f64 = sigma.iter().sum();
-    if !(total > 0.0 && total.is_finite()) {
-        return None;
-    }
-    let (t, n) = (target as f64, sigma.len() as f64);
-    let (base, cap) = (uniform_share(opts, target) as f64, opts.adaptive_max_ratio.max(1.0) * t);
-    let want: Vec<f64> = sigma.par_iter().map(|s| (base + (t - base) * n * s / total).min(cap)).collect();
-    // What the cap cut off goes evenly to the pixels under it, so that the pass keeps its total.
-    let under = want.iter().filter(|&&x| x < cap).count();
-    let spare = (n * t - want.iter().sum::<f64>()).max(0.0) / under.max(1) as f64;
-    let want: Vec<f64> = want.par_iter().map(|&x| if x < cap { x + spare } else { x }).collect();
-    let counts = whole_counts(&want, (n * t).round());
-    Some(counts.par_iter().zip(sums).map(|(&c, px)| c.max(px.taken)).collect())
-}
-
-/// Whole counts for the real ones `want`, summing to `total` where `want` does: each rounded
-/// down, and what that leaves given one each to the pixels with the largest fractional parts
-/// (ties to the lower index). Rounding each to nearest could leave the pass's mean under its
-/// target, and a render halted at that mean would then never reach it.
-fn whole_counts(want: &[f64], total: f64) -> Vec<u32> {
-    let mut counts: Vec<u32> = want.par_iter().map(|&x| x.max(0.0).floor().min(u32::MAX as f64) as u32).collect();
-    let sum: f64 = counts.iter().map(|&c| c as f64).sum();
-    let short = (total - sum).max(0.0).min(want.len() as f64) as usize;
-    if short > 0 {
-        let mut order: Vec<usize> = (0..want.len()).collect();
-        let frac = |p: usize| want[p] - want[p].floor();
-        // A total order (fraction, then index): the result does not depend on the sort.
-        order.par_sort_unstable_by(|&a, &b| frac(b).total_cmp(&frac(a)).then(a.cmp(&b)));
-        for &p in &order[..short] {
-            counts[p] = counts[p].saturating_add(1);
-        }
-    }
-    counts
-}
-
-/// The count every pixel reaches in an adaptive pass of mean `target`, the uniform share: `1 -
-/// adaptive_share` of it, and at least `adaptive_min_spp` (at most `target`), so that no pixel's
-/// sigma rests on fewer samples than that: one sample shows no variance of its own, and a pixel
-/// the estimate misses would get no more.
-pub(super) fn uniform_share(opts: &AutoOptions, target: u32) -> u32 {
-    let share = ((1.0 - opts.adaptive_share.clamp(0.0, 1.0)) * target as f64).round() as u32;
-    share.max(opts.adaptive_min_spp.min(target))
+    let taken: Vec<u32> = sums.par_iter().map(|px| px.taken).collect();
+    opts.proportional().counts(&sigma, target, &taken)
 }
 
 #[cfg(test)]
@@ -245,7 +188,10 @@ mod tests {
         let t = adaptive_targets(&opts, 64, 0, 4, &sums, &lights, 1).unwrap();
         assert_eq!(t, [96, 96, 32, 32]);
         assert_eq!(t.iter().sum::<u32>(), 4 * 64);
-        assert!(t.iter().all(|&n| n >= uniform_share(&opts, 64)) && uniform_share(&opts, 64) == 32);
+        assert!(
+            t.iter().all(|&n| n >= opts.proportional().uniform_share(64))
+                && opts.proportional().uniform_share(64) == 32
+        );
     }
 
     /// The counts of a pass sum to exactly its total for any sigmas (a mean under the target
@@ -266,8 +212,6 @@ mod tests {
                 }
             }
         }
-        assert_eq!(whole_counts(&[1.5, 2.5, 3.0], 7.0), [2, 2, 3]);
-        assert_eq!(whole_counts(&[0.2, 0.7, 0.1], 1.0), [0, 1, 0]);
     }
 
     /// A pixel held at the cap gives what it would have had beyond it to the others.
@@ -312,18 +256,18 @@ mod tests {
     fn the_uniform_share_has_a_floor() {
         let opts = AutoOptions::default();
         assert_eq!((opts.adaptive_share, opts.adaptive_min_spp), (0.9, 4), "the defaults this test is written for");
-        assert_eq!(uniform_share(&opts, 2), 2);
-        assert_eq!(uniform_share(&opts, 4), 4);
-        assert_eq!(uniform_share(&opts, 16), 4);
-        assert_eq!(uniform_share(&opts, 64), 6);
-        assert_eq!(uniform_share(&opts, 256), 26);
+        assert_eq!(opts.proportional().uniform_share(2), 2);
+        assert_eq!(opts.proportional().uniform_share(4), 4);
+        assert_eq!(opts.proportional().uniform_share(16), 4);
+        assert_eq!(opts.proportional().uniform_share(64), 6);
+        assert_eq!(opts.proportional().uniform_share(256), 26);
         // The floor holds in the counts: the noise-free pixels keep it, the noisy one takes the rest.
         let sums = vec![PixelSums { taken: 4, ..PixelSums::default() }; 4];
         let lights = [light(10.0, 10.0, 1.0), light(5.0, 10.0, 1.0), light(0.0, 10.0, 1.0), light(10.0, 10.0, 1.0)];
         let own = AutoOptions { adaptive_radius: 0, adaptive_measured: false, ..opts };
         assert_eq!(adaptive_targets(&own, 16, 0, 4, &sums, &lights, 1).unwrap(), [4, 52, 4, 4]);
         let all = AutoOptions { adaptive_share: 1.0, adaptive_min_spp: 0, ..own };
-        assert_eq!(uniform_share(&all, 1 << 20), 0);
+        assert_eq!(all.proportional().uniform_share(1 << 20), 0);
     }
 
     /// A pixel's measured sigma is the square root of its one-sample variance of y averaged over
@@ -361,7 +305,7 @@ mod tests {
         let t = adaptive_targets(&opts, 64, 0, 5, &wide, &lights, 1).expect("measured noise");
         assert_eq!(t.iter().sum::<u32>(), 25 * 64);
         // The nine pixels whose window holds the centre share the rest of the pass.
-        let base = uniform_share(&opts, 64);
+        let base = opts.proportional().uniform_share(64);
         for p in 0..25usize {
             let near = (p % 5).abs_diff(2) <= 1 && (p / 5).abs_diff(2) <= 1;
             assert!(if near { t[p] > 64 } else { t[p] == base }, "pixel {p}: {t:?}");

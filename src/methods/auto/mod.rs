@@ -52,6 +52,7 @@ use super::lobe_aware::packed::{gather, gather_with_power, PackedGuide, PackedOp
 use super::mode::FilterMode;
 use super::parts;
 use super::uniform::Uniform;
+use crate::pipeline::allocation::{extras_round, rounds, window, ROUNDS};
 use crate::pipeline::film::{mean, Tally};
 use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
@@ -206,14 +207,13 @@ impl AutoStrategy {
         else {
             return self.trace_rounds(ctx, before, target, &|_| target);
         };
-        let uniform = counts::uniform_share(&self.opts, target);
+        let uniform = self.opts.proportional().uniform_share(target);
         if !self.trace_rounds(ctx, before, uniform, &|p| counts[p])? {
             return Ok(false);
         }
         // The extras in sweeps too, each pixel a like fraction of its own further.
         for k in 1..=ROUNDS {
-            let step = |p: usize| uniform + (counts[p].saturating_sub(uniform) * k).div_ceil(ROUNDS);
-            if !self.trace_to(ctx, &|p| step(p).min(counts[p]))? {
+            if !self.trace_to(ctx, &|p| extras_round(uniform, counts[p], k))? {
                 return Ok(false);
             }
         }
@@ -459,27 +459,6 @@ struct IndirectPart {
     glossy: bool,
     light: Vec<[f32; 3]>,
     narrow: Option<Vec<[f32; 3]>>,
-}
-
-/// The pixels of the (2 `radius` + 1)^2 window around pixel `p` of a `width` x `height` image,
-/// clipped at its border, row by row.
-fn window(width: usize, height: usize, p: usize, radius: usize) -> impl Iterator<Item = usize> {
-    let (x, y) = (p % width.max(1), p / width.max(1));
-    (y.saturating_sub(radius)..(y + radius + 1).min(height))
-        .flat_map(move |qy| (x.saturating_sub(radius)..(x + radius + 1).min(width)).map(move |qx| qy * width + qx))
-}
-
-/// Sweeps over the image per pass (`AutoStrategy::trace_rounds`).
-const ROUNDS: u32 = 4;
-
-/// The counts a pass from `before` to `target` samples per pixel sweeps the image up to: about
-/// equal steps, `ROUNDS` of them at most (fewer when the pass adds fewer samples), the last
-/// one `target`.
-fn rounds(before: u32, target: u32) -> Vec<u32> {
-    let step = target.saturating_sub(before).div_ceil(ROUNDS).max(1);
-    let mut out: Vec<u32> = (1..ROUNDS).map(|k| before.saturating_add(k * step)).filter(|&c| c < target).collect();
-    out.push(target);
-    out
 }
 
 /// Samples per pixel after pass `pass`: `initial` in pass 0, four times as many per pass after

@@ -1,4 +1,5 @@
 //! Options of `auto` (plain data: the job carries them).
+use crate::pipeline::allocation::Proportional;
 use crate::pipeline::settings::{Settable, Setting, Value};
 
 /// How `auto` sets its filters (methods.md §5).
@@ -50,7 +51,7 @@ pub struct AutoOptions {
     /// shadow rays do not see, antialiasing at the edges of objects above all.
     pub adaptive_measured: bool,
     /// Every pixel gets at least this many samples (at most the pass's mean) before the
-    /// adaptive part of a pass (`counts::uniform_share`).
+    /// adaptive part of a pass (`allocation::Proportional::uniform_share`).
     pub adaptive_min_spp: u32,
     /// From this many samples on, a pixel's frame value is mixed with its own unfiltered mean as
     /// far as the filter's bias, read off their difference, outweighs the mean's variance
@@ -68,6 +69,13 @@ pub struct AutoOptions {
     /// than taking their mean: beside a crease, where the lobe weight leaves the taps on one
     /// side, the mean keeps the light's slope into the corner as a bias.
     pub narrow_linear: bool,
+}
+
+impl AutoOptions {
+    /// How the adaptive passes share out their samples.
+    pub fn proportional(&self) -> Proportional {
+        Proportional { share: self.adaptive_share, min_spp: self.adaptive_min_spp, max_ratio: self.adaptive_max_ratio }
+    }
 }
 
 impl Default for AutoOptions {

@@ -222,7 +222,7 @@ fn adaptive_counts_sample_the_penumbrae_and_keep_the_total() {
         assert!((mean_spp / target - 1.0).abs() < 0.02, "pass {k}: mean {mean_spp} vs {target}");
         let min = fr.spp.iter().cloned().fold(f32::INFINITY, f32::min);
         let max = fr.spp.iter().cloned().fold(0.0, f32::max);
-        let floor = super::counts::uniform_share(&j.auto, target as u32) as f32;
+        let floor = j.auto.proportional().uniform_share(target as u32) as f32;
         assert!(min >= floor && floor < target / 2.0, "pass {k}: min {min}, floor {floor}");
         assert!(max >= 2.0 * target, "pass {k}: max {max}: the penumbrae get more");
     }
@@ -315,17 +315,6 @@ fn neighbourhood_reflectors_equal_a_visit_of_every_window() {
     }
 }
 
-#[test]
-fn passes_sweep_the_image_in_rounds_of_about_equal_steps() {
-    use super::rounds;
-    assert_eq!(rounds(16, 64), [28, 40, 52, 64]);
-    assert_eq!(rounds(4, 16), [7, 10, 13, 16]);
-    assert_eq!(rounds(1, 4), [2, 3, 4]);
-    assert_eq!(rounds(0, 1), [1]);
-    assert_eq!(rounds(64, 64), [64], "a pass that adds nothing");
-    assert_eq!(rounds(u32::MAX - 2, u32::MAX), [u32::MAX - 1, u32::MAX]);
-}
-
 /// A pass the deadline cuts leaves every pixel within one round of the others (its samples
 /// sweep the image in rounds), not a band of pixels at the pass's target beside the rest at
 /// the last pass's. Passes 1-3 cut at points spread over their rounds (counted in stop checks,
@@ -376,7 +365,7 @@ fn adaptive_counts_sample_an_object_s_edge_the_shadow_rays_do_not_see() {
     assert!(spp[most] > 32.0 && edge(most), "pixel {most} with {} samples is not at the edge", spp[most]);
     // The square's centre and the background: flat, at the floor (one more where the whole
     // counts round up).
-    let floor = super::counts::uniform_share(&j.auto, 16) as f32;
+    let floor = j.auto.proportional().uniform_share(16) as f32;
     for p in (0..w * w).filter(|&p| !edge(p)) {
         assert!(spp[p] <= floor + 1.0, "pixel {p} off the edge has {} samples", spp[p]);
     }
@@ -394,7 +383,7 @@ fn a_pass_cut_in_its_adaptive_extras_leaves_like_fractions() {
     let mut j = job(builtin("cornell", 48, 36), Method::Auto, 3, 5, 0);
     let pixels = (j.width() * j.height()) as i64;
     let full = all_frames(&j).pop().unwrap().spp;
-    let uniform = super::counts::uniform_share(&j.auto, 16);
+    let uniform = j.auto.proportional().uniform_share(16);
     assert_eq!(uniform, 4, "the defaults this test is written for");
     assert!(full.iter().any(|&n| n >= 32.0), "some pixels adapt");
     let round = |p: usize, k: u32| (uniform + ((full[p] as u32 - uniform) * k).div_ceil(4)) as f32;

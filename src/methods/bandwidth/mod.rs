@@ -8,9 +8,11 @@
 //!
 //! The method `bandwidth` puts them to work (`shading`): the per-pixel analysis (`analysis`),
 //! coarse-to-fine shading on nested grids (`grid`) and the camera samples that add what the
-//! paper leaves out, shadows, bounces and other lights (`sample`). docs/methods.md §4.
+//! paper leaves out, shadows, bounces and other lights (`sample`), more of them where they
+//! vary most (`counts`). docs/methods.md §4.
 pub mod analysis;
 pub mod brdf;
+pub mod counts;
 pub mod curvature;
 pub mod grid;
 pub mod illumination;

@@ -4,6 +4,7 @@ use super::illumination::WaveletOptions;
 use super::upsample::UpsampleOptions;
 use super::vector::{BrdfClip, Propagation};
 use super::wavelet::Basis;
+use crate::pipeline::allocation::Proportional;
 use crate::pipeline::settings::{Settable, Setting, Value};
 
 /// How the shaded, unshadowed light `S_hat` meets the shadows each camera sample traces (the
@@ -80,6 +81,24 @@ pub struct BandwidthOptions {
     /// other side's albedo; the pixel's own edge test sees only its 4-neighbours).
     pub same_object: bool,
     pub visibility: Visibility,
+    /// From the pass whose mean count reaches this many camera samples per pixel on,
+    /// `adaptive_share` of each pass goes to the pixels whose samples vary most (`counts`, a
+    /// departure: the paper samples every pixel alike and shares out only its lookups); 0: the
+    /// same count everywhere. Off with `antialiasing`, whose levels set the counts themselves.
+    pub adaptive_from_spp: u32,
+    /// That share, in [0, 1]; the rest is spread evenly, so that every pixel converges.
+    pub adaptive_share: f64,
+    /// Every pixel gets at least this many samples of a pass before its adaptive part.
+    pub adaptive_min_spp: u32,
+    /// No pixel asks for more than this many times the pass's mean count.
+    pub adaptive_max_ratio: f64,
+}
+
+impl BandwidthOptions {
+    /// How the adaptive passes share out their camera samples.
+    pub fn proportional(&self) -> Proportional {
+        Proportional { share: self.adaptive_share, min_spp: self.adaptive_min_spp, max_ratio: self.adaptive_max_ratio }
+    }
 }
 
 impl Default for BandwidthOptions {
@@ -102,6 +121,10 @@ impl Default for BandwidthOptions {
             upsample: UpsampleOptions::default(),
             same_object: true,
             visibility: Visibility::Ratio,
+            adaptive_from_spp: 4,
+            adaptive_share: 0.5,
+            adaptive_min_spp: 4,
+            adaptive_max_ratio: 8.0,
         }
     }
 }
@@ -125,6 +148,10 @@ impl Settable for BandwidthOptions {
             Setting::integer("level_step", 1, 16),
             Setting::flag("same_object"),
             Setting::choice("visibility", &["ratio", "control-variate"]),
+            Setting::integer("adaptive_from_spp", 0, 1 << 20),
+            Setting::number("adaptive_share", 0.0, 1.0),
+            Setting::integer("adaptive_min_spp", 0, 1 << 20),
+            Setting::number("adaptive_max_ratio", 1.0, 1000.0),
         ];
         SETTINGS
     }
@@ -147,6 +174,10 @@ impl Settable for BandwidthOptions {
             "level_step" => self.level_step = v.integer() as u32,
             "same_object" => self.same_object = v.flag(),
             "visibility" => self.visibility = [Visibility::Ratio, Visibility::ControlVariate][v.choice()],
+            "adaptive_from_spp" => self.adaptive_from_spp = v.integer() as u32,
+            "adaptive_share" => self.adaptive_share = v.number(),
+            "adaptive_min_spp" => self.adaptive_min_spp = v.integer() as u32,
+            "adaptive_max_ratio" => self.adaptive_max_ratio = v.number(),
             _ => unreachable!("{name} is in `settings`"),
         }
     }

@@ -60,9 +60,13 @@ fn the_passes_reach_full_resolution_and_converge_to_uniform() {
     let g = GBuffer::build(&s, &j.view);
     let surface = g.pixels.iter().filter(|p| p.is_valid() && !p.emitter).count() as u64;
     assert!(surface > 1500 && surface < 3072, "{surface}");
-    for fr in &f[5..] {
+    for (before, fr) in f[4..].iter().zip(&f[5..]) {
         assert!(fr.shading.as_ref().unwrap().level.iter().all(|&l| l <= 0.0), "pass {}", fr.stats.pass);
-        assert_eq!(fr.stats.shaded_points * 3072, fr.stats.full_resolution_points * surface, "pass {}", fr.stats.pass);
+        // The pass's samples per pixel (their counts adapt from 4 spp on).
+        let added = |p: usize| (fr.spp[p] - before.spp[p]) as u64;
+        let on_surface: u64 = (0..3072).filter(|&p| g.pixels[p].is_valid() && !g.pixels[p].emitter).map(added).sum();
+        assert_eq!(fr.stats.shaded_points, on_surface, "pass {}", fr.stats.pass);
+        assert_eq!(fr.stats.full_resolution_points, (0..3072).map(added).sum::<u64>(), "pass {}", fr.stats.pass);
     }
     let last = f.last().unwrap();
     let (m, r) = (mean(&last.color), mean(&reference.color));
@@ -149,4 +153,61 @@ fn antialiasing_levels_multiply_the_camera_samples_where_the_bandwidth_asks() {
             assert_eq!(*spp, expected, "level {level}");
         }
     }
+}
+
+/// From 4 spp on, half of each pass goes where the pixels' samples vary (`counts`): the pass
+/// keeps its total, the open sky (its samples vary only with the sky's gradient) keeps little
+/// more than the uniform share, the surfaces take the rest; with `adaptive_from_spp` 0 every pixel has the same count.
+#[test]
+fn camera_samples_go_where_the_samples_vary() {
+    let s = builtin("sky-spheres", 64, 48);
+    let j = job(s.clone(), Method::Bandwidth, 6, 3, 0);
+    let g = GBuffer::build(&s, &j.view);
+    let f = all_frames(&j).pop().unwrap();
+    let n = f.spp.len();
+    assert_eq!(f.spp.iter().sum::<f32>(), 32.0 * n as f32, "the pass keeps its total");
+    let base = j.bandwidth.proportional().uniform_share(32) as f32;
+    assert!(f.spp.iter().all(|&c| c >= base && c <= 8.0 * 32.0), "{:?}", f.spp);
+    // Sky pixels whose 3 x 3 window is all sky, and surface pixels.
+    let sky = |p: usize| crate::pipeline::allocation::window(64, 48, p, 1).all(|q| !g.pixels[q].is_valid());
+    let mean_of = |keep: &dyn Fn(usize) -> bool| {
+        let (sum, k) = (0..n).filter(|&p| keep(p)).fold((0.0, 0), |(s, k), p| (s + f.spp[p], k + 1));
+        assert!(k > 100, "{k} pixels");
+        sum / k as f32
+    };
+    let (open_sky, surface) = (mean_of(&sky), mean_of(&|p| g.pixels[p].is_valid()));
+    assert!(open_sky < 0.65 * surface && surface > 32.0, "sky {open_sky}, surface {surface}, uniform share {base}");
+    let mut even = j.clone();
+    even.bandwidth.adaptive_from_spp = 0;
+    assert!(all_frames(&even).pop().unwrap().spp.iter().all(|&c| c == 32.0));
+}
+
+/// A pass the deadline cuts in its adaptive extras leaves every pixel between two of their
+/// sweeps (`allocation::extras_round`), a like fraction of its own way, not a band of pixels
+/// done beside pixels not begun. The cut counts stop checks (one per pixel and sweep), so it
+/// lands at the same point of the work on any machine.
+#[test]
+fn a_pass_cut_in_its_extras_leaves_each_pixel_a_like_fraction_of_its_way() {
+    use crate::pipeline::allocation::extras_round;
+    use crate::pipeline::job::tests::cut_pass_after_checks;
+    let s = builtin("sky-spheres", 48, 32);
+    let j = job(s, Method::Bandwidth, 5, 4, 0);
+    let pixels = 48 * 32;
+    // Pass 4 goes from 8 to 16 spp; its uniform share is 8, so its sweeps are one that traces
+    // nothing, then the extras' four.
+    let base = j.bandwidth.proportional().uniform_share(16);
+    assert_eq!(base, 8, "the defaults this test is written for");
+    let frames = all_frames(&j);
+    let (before, whole) = (&frames[3], &frames[4]);
+    let cut = cut_pass_after_checks(4, pixels * 5 / 2, || all_frames(&j)).pop().unwrap();
+    assert!(!cut.stats.pass_complete && cut.stats.pass == 4);
+    let mut moved = 0;
+    for (p, ((&c, &full), &had)) in cut.spp.iter().zip(&whole.spp).zip(&before.spp).enumerate() {
+        // A pixel that had more than a sweep's count before the pass waits at what it had.
+        let (full, had) = (full as u32, had as u32);
+        let (lo, hi) = (extras_round(base, full, 1).max(had), extras_round(base, full, 2).max(had));
+        assert!((lo..=hi).contains(&(c as u32)), "pixel {p}: {c} not within {lo}..={hi} of its {full}");
+        moved += (c as u32 > lo) as u32;
+    }
+    assert!(moved > 0 && moved < pixels as u32, "the cut fell inside the second sweep: {moved}");
 }

@@ -7,11 +7,13 @@
 //! the pixel's own mean and the estimate is consistent: the render converges to the `uniform`
 //! image.
 use super::analysis::{analyse, coarsest_level, finest_level, Analysis};
+use super::counts::Moments;
 use super::grid::{grid_level, Upsampling};
 use super::levels::pyramid;
 use super::options::Visibility;
 use super::sample::{sample_terms, shade, LookupStream, MAX_LOOKUPS};
 use crate::methods::uniform::Uniform;
+use crate::pipeline::allocation::{extras_round, pooled_sigmas, rounds, ROUNDS};
 use crate::pipeline::film::{trace_bands, Tally};
 use crate::pipeline::frame::{Frame, FrameStats, ShadingMaps};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
@@ -20,6 +22,7 @@ use crate::render::geometry::NONE;
 use crate::render::integrator::sample_from;
 use crate::render::sampler::{hash_words, PixelSampler};
 use glam::Vec3;
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// Seed of the shading lookups' stream.
@@ -42,6 +45,8 @@ struct Accum {
     n_shaded: u32,
     /// Samples drawn (the next sample's index).
     taken: u32,
+    /// Luminance moments of the samples' terms, for the adaptive counts.
+    moments: Moments,
 }
 
 impl Accum {
@@ -179,8 +184,13 @@ impl BandwidthShading {
             .collect()
     }
 
-    /// Traces the pass's samples of every pixel, in parallel over bands of rows.
-    fn trace(&mut self, ctx: &PassContext, plan: &[PixelPlan]) -> Result<Tally, RenderError> {
+    /// Traces every pixel p up to `upto(p)` samples, in parallel over bands of rows.
+    fn trace(
+        &mut self,
+        ctx: &PassContext,
+        plan: &[PixelPlan],
+        upto: &(dyn Fn(usize) -> u32 + Sync),
+    ) -> Result<Tally, RenderError> {
         let job = ctx.job;
         let scene = ctx.scene;
         let cam = ctx.view;
@@ -192,7 +202,7 @@ impl BandwidthShading {
         trace_bands(&mut self.pixels, w, ctx.stop, |x, y, px, t| {
             let i = y * w + x;
             let centre_object = gbuffer.map_or(NONE, |g| g.pixels[i].object);
-            for _ in 0..plan[i].samples {
+            while px.taken < upto(i) {
                 let index = px.taken;
                 px.taken += 1;
                 let mut sampler = PixelSampler::new(seed, i as u32, index);
@@ -206,6 +216,7 @@ impl BandwidthShading {
                     t.rays += p.rays as u64;
                     if p.radiance.is_finite() {
                         add(&mut px.whole, p.radiance);
+                        px.moments.add_whole(p.radiance.into());
                         px.n_whole += 1;
                     } else {
                         t.dropped += 1;
@@ -232,24 +243,27 @@ impl BandwidthShading {
                 }
                 if !same {
                     add(&mut px.whole, terms.rest + terms.shadowed);
+                    px.moments.add_whole((terms.rest + terms.shadowed).into());
                     px.n_whole += 1;
                     continue;
                 }
+                px.moments.add_terms(terms.rest.into(), terms.shadowed.into(), terms.unshadowed.into());
                 add(&mut px.rest, terms.rest);
                 add(&mut px.shadowed, terms.shadowed);
                 add(&mut px.unshadowed, terms.unshadowed);
                 px.n_same += 1;
                 if let Some(s) = shaded_value {
                     add(&mut px.shaded, s);
+                    px.moments.add_shaded(s.into());
                     px.n_shaded += 1;
                 }
             }
         })
     }
 
-    /// Every pixel's estimate: `S_hat` from its own shading or its parents', plus its samples.
-    fn compose(&self, ctx: &PassContext) -> Vec<[f32; 3]> {
-        let s_hat: Vec<Option<[f64; 3]>> = match (&self.upsampling, ctx.gbuffer) {
+    /// Every pixel's `S_hat`, from its own shading or its parents' (None: none reached it yet).
+    fn s_hat(&self, ctx: &PassContext) -> Vec<Option<[f64; 3]>> {
+        match (&self.upsampling, ctx.gbuffer) {
             (Some(up), Some(g)) => {
                 let own: Vec<Option<[f64; 3]>> = self
                     .pixels
@@ -267,9 +281,71 @@ impl BandwidthShading {
                 up.resolve(&own)
             }
             _ => vec![None; self.pixels.len()],
-        };
+        }
+    }
+
+    /// Every pixel's estimate: `S_hat` plus its samples.
+    fn compose(&self, ctx: &PassContext) -> Vec<[f32; 3]> {
+        let s_hat = self.s_hat(ctx);
         let visibility = ctx.job.bandwidth.visibility;
         self.pixels.iter().zip(&s_hat).map(|(px, s)| px.estimate(s.as_ref(), visibility)).collect()
+    }
+}
+
+impl BandwidthShading {
+    /// The samples each pixel should have after a pass of mean `target` (`counts`), or None
+    /// while they stay uniform: below `adaptive_from_spp`, with antialiasing levels, before
+    /// every pixel has two samples, or where no pixel varies.
+    fn adaptive_counts(&self, ctx: &PassContext, target: u32) -> Option<Vec<u32>> {
+        let opts = &ctx.job.bandwidth;
+        if opts.adaptive_from_spp == 0 || target < opts.adaptive_from_spp || opts.antialiasing || self.base_spp < 2 {
+            return None;
+        }
+        let s_hat = self.s_hat(ctx);
+        let own: Vec<Option<f64>> = self
+            .pixels
+            .par_iter()
+            .zip(&s_hat)
+            .map(|(px, s)| {
+                let s = s.map(|s| (s[0] + s[1] + s[2]) / 3.0);
+                px.moments.sample_variance(px.n_whole + px.n_same, px.n_same, px.n_shaded, s, opts.visibility)
+            })
+            .collect();
+        let sigma = pooled_sigmas(self.width as usize, &own, 1);
+        let taken: Vec<u32> = self.pixels.iter().map(|p| p.taken).collect();
+        opts.proportional().counts(&sigma, target, &taken)
+    }
+
+    /// Traces the pass: every pixel up to the pass's uniform share in sweeps over the image,
+    /// then the adaptive extras in `ROUNDS` more, so that a pass the deadline cuts leaves the
+    /// counts even; without adaptive counts, every pixel its plan's samples in one sweep.
+    fn trace_pass(
+        &mut self,
+        ctx: &PassContext,
+        plan: &[PixelPlan],
+        counts: Option<&[u32]>,
+        target: u32,
+    ) -> Result<Tally, RenderError> {
+        let Some(counts) = counts else {
+            let ends: Vec<u32> = self.pixels.iter().zip(plan).map(|(p, q)| p.taken.saturating_add(q.samples)).collect();
+            return self.trace(ctx, plan, &|p| ends[p]);
+        };
+        let before = self.base_spp.min(u32::MAX as u64) as u32;
+        let uniform = ctx.job.bandwidth.proportional().uniform_share(target);
+        let mut total = Tally { complete: true, ..Tally::default() };
+        let sweeps = rounds(before, uniform).into_iter().map(|r| (r, 0)).chain((1..=ROUNDS).map(|k| (uniform, k)));
+        for (round, k) in sweeps {
+            let tally = if k == 0 {
+                self.trace(ctx, plan, &|p| counts[p].min(round))?
+            } else {
+                self.trace(ctx, plan, &|p| extras_round(uniform, counts[p], k))?
+            };
+            total = Tally::total(&[total, tally]);
+            if !total.complete {
+                break;
+            }
+        }
+        Ok(total)
     }
 }
 
@@ -287,12 +363,25 @@ impl Strategy for BandwidthShading {
         }
         let k = Uniform::pass_spp(job.initial_spp, ctx.pass, self.base_spp, job.halt.max_mean_spp);
         let levels = self.analysis.as_ref().map(|a| Self::pass_levels(a, ctx.pass, opts.level_step));
-        let plan = match &levels {
+        let mut plan = match &levels {
             Some(levels) => self.plan(ctx, levels, k),
             None => vec![PixelPlan { samples: k, lookups: 0 }; self.pixels.len()],
         };
+        let target = (self.base_spp + k as u64).min(u32::MAX as u64) as u32;
+        let counts = self.adaptive_counts(ctx, target);
+        if let Some(counts) = &counts {
+            for ((q, &c), px) in plan.iter_mut().zip(counts).zip(&self.pixels) {
+                let samples = c.saturating_sub(px.taken);
+                // Eq. 8 shares the pass's lookups per pixel: a pixel given more camera samples
+                // than the mean spreads its lookups over them.
+                if q.lookups > 0 && samples > k {
+                    q.lookups = ((q.lookups as u64 * k as u64).div_ceil(samples as u64) as u32).max(1);
+                }
+                q.samples = samples;
+            }
+        }
         self.method_seconds += start.elapsed().as_secs_f64();
-        let tally = self.trace(ctx, &plan)?;
+        let tally = self.trace_pass(ctx, &plan, counts.as_deref(), target)?;
         self.base_spp += k as u64;
         self.rays += tally.rays;
         self.dropped += tally.dropped;
