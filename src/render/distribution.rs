@@ -3,20 +3,123 @@
 //! directions from. The inversion starts from a guide table (the cutpoint method of Chen and
 //! Asau 1974) instead of a binary search: the same segment for every `u`, so samples stay
 //! monotone in `u` (an alias table would break the stratification), at O(1) expected cost.
+//!
+//! Each segment's distribution function, value and guide entry lie side by side (`Cell`), and a
+//! 2-D table keeps all its rows in one array: a sample reads one or two cache lines of its row
+//! instead of three arrays behind a per-row header, which made it memory-bound.
+
+/// One segment of a table: the distribution function at its start, its value, and the guide
+/// entry of the `u` cell of the same index.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Cell {
+    /// Distribution function at k / n, from 0 to 1 (f64: long tables of small values would
+    /// lose their increments in f32). A table of n segments has n + 1 cells; the last holds
+    /// the function's 1 alone.
+    cdf: f64,
+    /// The (non-negative) segment value.
+    func: f32,
+    /// `guide`: the last `k` with `cdf[k] <= j / n`, where the search for `u` in
+    /// `[j / n, (j + 1) / n)` starts (j the cell's index).
+    guide: u32,
+}
+
+/// The cells of a table of `func` (cleaned: negative or non-finite values count as 0; all
+/// zero: uniform) and its integral.
+fn cells(func: &[f32]) -> (Vec<Cell>, f64) {
+    assert!(!func.is_empty(), "a distribution needs at least one segment");
+    let func: Vec<f32> = func.iter().map(|&f| if f.is_finite() && f > 0.0 { f } else { 0.0 }).collect();
+    let n = func.len() as f64;
+    let mut cdf = Vec::with_capacity(func.len() + 1);
+    let mut sum = 0.0f64;
+    cdf.push(0.0);
+    for &f in &func {
+        sum += f as f64 / n;
+        cdf.push(sum);
+    }
+    let integral = sum;
+    if integral > 0.0 {
+        cdf.iter_mut().for_each(|c| *c /= integral);
+    } else {
+        cdf.iter_mut().enumerate().for_each(|(k, c)| *c = k as f64 / n);
+    }
+    *cdf.last_mut().expect("n + 1 entries") = 1.0;
+    let mut cells: Vec<Cell> = cdf.iter().map(|&cdf| Cell { cdf, func: 0.0, guide: 0 }).collect();
+    let mut k = 0usize;
+    for j in 0..func.len() {
+        let at = j as f64 / n;
+        while k + 1 < func.len() && cdf[k + 1] <= at {
+            k += 1;
+        }
+        cells[j].func = func[j];
+        cells[j].guide = k as u32;
+    }
+    (cells, integral)
+}
+
+/// A table's cells (n + 1 of them) and integral, borrowed: what sampling reads.
+#[derive(Clone, Copy, Debug)]
+struct Table<'a> {
+    cells: &'a [Cell],
+    integral: f64,
+}
+
+impl Table<'_> {
+    fn len(&self) -> usize {
+        self.cells.len() - 1
+    }
+
+    /// The last `k < n` with `cdf[k] <= u` (`u` in [0, 1]): the guide's entry for `u`'s
+    /// cell, then a short walk, which also mends a cell index that rounding put one off.
+    #[inline]
+    fn segment_of(&self, u: f64) -> usize {
+        let (n, c) = (self.len(), self.cells);
+        let j = ((u * n as f64) as usize).min(n - 1);
+        let mut k = c[j].guide as usize;
+        while k > 0 && c[k].cdf > u {
+            k -= 1;
+        }
+        while k + 1 < n && c[k + 1].cdf <= u {
+            k += 1;
+        }
+        k
+    }
+
+    #[inline]
+    fn pdf_of(&self, k: usize) -> f32 {
+        if self.integral > 0.0 {
+            (self.cells[k].func as f64 / self.integral) as f32
+        } else {
+            1.0
+        }
+    }
+
+    #[inline]
+    fn sample(&self, u: f32) -> (f32, f32, usize) {
+        let (n, c) = (self.len(), self.cells);
+        let u = (u as f64).clamp(0.0, 1.0);
+        let mass = |k: usize| c[k + 1].cdf - c[k].cdf;
+        // The last k with cdf[k] <= u, among segments of positive mass.
+        let mut k = self.segment_of(u);
+        while k > 0 && mass(k) <= 0.0 {
+            k -= 1;
+        }
+        while k + 1 < n && mass(k) <= 0.0 {
+            k += 1;
+        }
+        let m = mass(k);
+        let t = if m > 0.0 { ((u - c[k].cdf) / m).clamp(0.0, 1.0) } else { 0.5 };
+        // Kept strictly below 1 (f32 rounding of (n - 1 + t) / n can reach it).
+        let x = (((k as f64 + t) / n as f64) as f32).min(1.0 - f32::EPSILON / 2.0);
+        (x, self.pdf_of(k), k)
+    }
+}
 
 /// A piecewise-constant density on [0, 1) with `n` equal segments.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Distribution1D {
-    /// The (non-negative) segment values.
-    func: Vec<f32>,
-    /// Distribution function at k / n, from 0 to 1 (f64: long tables of small values would
-    /// lose their increments in f32).
-    cdf: Vec<f64>,
+    cells: Vec<Cell>,
     /// The integral of `func` over [0, 1).
     integral: f64,
-    /// `guide[j]`: the last `k` with `cdf[k] <= j / n`, where the search for `u` in
-    /// `[j / n, (j + 1) / n)` starts.
-    guide: Vec<u32>,
 }
 
 impl Distribution1D {
@@ -24,57 +127,20 @@ impl Distribution1D {
     /// an all-zero table becomes uniform (so that sampling is always defined; callers that
     /// care check `integral`).
     pub fn new(func: &[f32]) -> Self {
-        assert!(!func.is_empty(), "a distribution needs at least one segment");
-        let func: Vec<f32> = func.iter().map(|&f| if f.is_finite() && f > 0.0 { f } else { 0.0 }).collect();
-        let n = func.len() as f64;
-        let mut cdf = Vec::with_capacity(func.len() + 1);
-        let mut sum = 0.0f64;
-        cdf.push(0.0);
-        for &f in &func {
-            sum += f as f64 / n;
-            cdf.push(sum);
-        }
-        let integral = sum;
-        if integral > 0.0 {
-            cdf.iter_mut().for_each(|c| *c /= integral);
-        } else {
-            cdf.iter_mut().enumerate().for_each(|(k, c)| *c = k as f64 / n);
-        }
-        *cdf.last_mut().expect("n + 1 entries") = 1.0;
-        let mut guide = Vec::with_capacity(func.len());
-        let mut k = 0usize;
-        for j in 0..func.len() {
-            let at = j as f64 / n;
-            while k + 1 < func.len() && cdf[k + 1] <= at {
-                k += 1;
-            }
-            guide.push(k as u32);
-        }
-        Distribution1D { func, cdf, integral, guide }
+        let (cells, integral) = cells(func);
+        Distribution1D { cells, integral }
     }
 
-    /// The last `k < n` with `cdf[k] <= u` (`u` in [0, 1]): the guide's entry for `u`'s
-    /// cell, then a short walk, which also mends a cell index that rounding put one off.
-    #[inline]
-    fn segment_of(&self, u: f64) -> usize {
-        let n = self.func.len();
-        let j = ((u * n as f64) as usize).min(n - 1);
-        let mut k = self.guide[j] as usize;
-        while k > 0 && self.cdf[k] > u {
-            k -= 1;
-        }
-        while k + 1 < n && self.cdf[k + 1] <= u {
-            k += 1;
-        }
-        k
+    fn table(&self) -> Table<'_> {
+        Table { cells: &self.cells, integral: self.integral }
     }
 
     pub fn len(&self) -> usize {
-        self.func.len()
+        self.cells.len() - 1
     }
 
     pub fn is_empty(&self) -> bool {
-        self.func.is_empty()
+        self.len() == 0
     }
 
     /// The integral of the (cleaned) function over [0, 1).
@@ -85,40 +151,25 @@ impl Distribution1D {
     /// Density at segment `k`.
     #[inline]
     pub fn pdf_of(&self, k: usize) -> f32 {
-        if self.integral > 0.0 {
-            (self.func[k] as f64 / self.integral) as f32
-        } else {
-            1.0
-        }
+        self.table().pdf_of(k)
     }
 
     /// Maps `u` in [0, 1) to (x in [0, 1), its density, its segment). Monotone in `u`, so
     /// stratified values stay stratified. Never lands in a segment of zero density.
     #[inline]
     pub fn sample(&self, u: f32) -> (f32, f32, usize) {
-        let n = self.func.len();
-        let u = (u as f64).clamp(0.0, 1.0);
-        // The last k with cdf[k] <= u, among segments of positive mass.
-        let mut k = self.segment_of(u);
-        while k > 0 && self.cdf[k + 1] - self.cdf[k] <= 0.0 {
-            k -= 1;
-        }
-        while k + 1 < n && self.cdf[k + 1] - self.cdf[k] <= 0.0 {
-            k += 1;
-        }
-        let mass = self.cdf[k + 1] - self.cdf[k];
-        let t = if mass > 0.0 { ((u - self.cdf[k]) / mass).clamp(0.0, 1.0) } else { 0.5 };
-        // Kept strictly below 1 (f32 rounding of (n - 1 + t) / n can reach it).
-        let x = (((k as f64 + t) / n as f64) as f32).min(1.0 - f32::EPSILON / 2.0);
-        (x, self.pdf_of(k), k)
+        self.table().sample(u)
     }
 }
 
 /// A piecewise-constant density on [0, 1)^2 over a `width` x `height` grid: a marginal
-/// distribution over rows and one conditional distribution per row.
+/// distribution over rows and one conditional distribution per row, the rows' cells in one
+/// array (`width + 1` per row).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Distribution2D {
-    rows: Vec<Distribution1D>,
+    width: usize,
+    rows: Vec<Cell>,
+    row_integrals: Vec<f64>,
     marginal: Distribution1D,
 }
 
@@ -126,9 +177,20 @@ impl Distribution2D {
     /// `func` is row-major, `height` rows of `width` values.
     pub fn new(func: &[f32], width: usize, height: usize) -> Self {
         assert!(width > 0 && height > 0 && func.len() == width * height, "a {width} x {height} table");
-        let rows: Vec<Distribution1D> = func.chunks_exact(width).map(Distribution1D::new).collect();
-        let marginal = Distribution1D::new(&rows.iter().map(|r| r.integral() as f32).collect::<Vec<_>>());
-        Distribution2D { rows, marginal }
+        let mut rows = Vec::with_capacity((width + 1) * height);
+        let mut row_integrals = Vec::with_capacity(height);
+        for row in func.chunks_exact(width) {
+            let (c, integral) = cells(row);
+            rows.extend(c);
+            row_integrals.push(integral);
+        }
+        let marginal = Distribution1D::new(&row_integrals.iter().map(|&i| i as f32).collect::<Vec<_>>());
+        Distribution2D { width, rows, row_integrals, marginal }
+    }
+
+    fn row(&self, r: usize) -> Table<'_> {
+        let w = self.width + 1;
+        Table { cells: &self.rows[r * w..(r + 1) * w], integral: self.row_integrals[r] }
     }
 
     /// The integral of the table over [0, 1)^2.
@@ -140,18 +202,17 @@ impl Distribution2D {
     #[inline]
     pub fn sample(&self, u: [f32; 2]) -> ([f32; 2], f32) {
         let (y, pdf_y, row) = self.marginal.sample(u[1]);
-        let (x, pdf_x, _) = self.rows[row].sample(u[0]);
+        let (x, pdf_x, _) = self.row(row).sample(u[0]);
         ([x, y], pdf_x * pdf_y)
     }
 
     /// Density at point (x, y) in [0, 1)^2.
     #[inline]
     pub fn pdf(&self, p: [f32; 2]) -> f32 {
-        let h = self.rows.len();
-        let w = self.rows[0].len();
+        let (h, w) = (self.row_integrals.len(), self.width);
         let row = ((p[1] * h as f32) as usize).min(h - 1);
         let col = ((p[0] * w as f32) as usize).min(w - 1);
-        self.marginal.pdf_of(row) * self.rows[row].pdf_of(col)
+        self.marginal.pdf_of(row) * self.row(row).pdf_of(col)
     }
 }
 
@@ -178,15 +239,16 @@ mod tests {
         ];
         for func in &tables {
             let d = Distribution1D::new(func);
-            let binary = |u: f64| d.cdf.partition_point(|&c| c <= u).saturating_sub(1).min(d.len() - 1);
+            let cdf: Vec<f64> = d.cells.iter().map(|c| c.cdf).collect();
+            let binary = |u: f64| cdf.partition_point(|&c| c <= u).saturating_sub(1).min(d.len() - 1);
             let mut us: Vec<f64> = vec![0.0, 1.0, f64::EPSILON, 1.0 - f64::EPSILON];
-            for &c in &d.cdf {
+            for &c in &cdf {
                 us.extend([c, c.next_down(), c.next_up()].into_iter().filter(|u| (0.0..=1.0).contains(u)));
             }
             us.extend((0..20_000).map(|_| rng.f() as f64));
             us.extend((0..=d.len()).map(|j| j as f64 / d.len() as f64));
             for u in us {
-                assert_eq!(d.segment_of(u), binary(u), "u = {u:e} on a table of {}", d.len());
+                assert_eq!(d.table().segment_of(u), binary(u), "u = {u:e} on a table of {}", d.len());
             }
         }
     }
