@@ -17,6 +17,7 @@ use super::options::BandwidthOptions;
 use super::texture::TextureBandwidth;
 use super::vector::{one_bounce, Reflection};
 use crate::render::camera::Camera;
+use crate::render::environment::EnvironmentSample;
 use crate::render::gbuffer::{GBuffer, GSample};
 use crate::render::material::{Brdf, Material};
 use crate::render::sampler::PixelSampler;
@@ -157,6 +158,7 @@ pub fn analyse(scene: &Scene, view: &Camera, g: &GBuffer, opts: &BandwidthOption
         // estimate's, at the coarsest level.
         return Analysis { bandwidth: vec![0.0; n], level: vec![coarsest; n], variance: vec![0.0; n] };
     };
+    let start = std::time::Instant::now();
     let env_band = EnvironmentBandwidth::new(env, &opts.wavelets);
 
     // The BRDF tables of every BRDF seen (a checker albedo gives two), built in parallel.
@@ -177,9 +179,23 @@ pub fn analyse(scene: &Scene, view: &Camera, g: &GBuffer, opts: &BandwidthOption
         .map(|p| p.is_valid().then_some(SurfacePoint { position: p.position, normal: p.normal, object: p.object }))
         .collect();
     let curv = curvature(&points, w as usize, h as usize);
+    let tables_done = start.elapsed().as_secs_f64();
     let (fov_x, fov_y) = view.fields_of_view();
     let stream = crate::render::sampler::hash_words(&[seed, STREAM]);
 
+    // Eq. 4's light directions: each pixel's own, or one set per tile of `light_tile` pixels
+    // (`BandwidthOptions::light_tile`), drawn once with their bandwidths.
+    let tile = opts.light_tile.max(1);
+    let draw = |stream_index: u32| -> Vec<(EnvironmentSample, f64)> {
+        let mut sampler = PixelSampler::new(stream, stream_index, 0);
+        (0..opts.light_samples.max(1))
+            .filter_map(|_| env.sample(sampler.next_2d()))
+            .map(|es| (es, env_band.at(es.wi)))
+            .collect()
+    };
+    let (tiles_x, tiles_y) = (w.div_ceil(tile), h.div_ceil(tile));
+    let tiles: Vec<Vec<(EnvironmentSample, f64)>> =
+        if tile > 1 { (0..tiles_x * tiles_y).into_par_iter().map(draw).collect() } else { Vec::new() };
     let analyse_pixel = |i: usize| -> (f32, i32, f64) {
         let (x, y) = (i as u32 % w, i as u32 / w);
         let p: &GSample = &g.pixels[i];
@@ -193,13 +209,17 @@ pub fn analyse(scene: &Scene, view: &Camera, g: &GBuffer, opts: &BandwidthOption
         let cos_x = p.normal.dot(wo) as f64;
         let rate = uv_rate(g, x, y);
         let texture = textures[p.material as usize].iter().map(|t| t.at(p.uv)).fold(0.0f64, f64::max) * rate;
-        let mut sampler = PixelSampler::new(stream, i as u32, 0);
-        let mut directions = Vec::with_capacity(opts.light_samples as usize);
-        for _ in 0..opts.light_samples.max(1) {
-            let Some(es) = env.sample(sampler.next_2d()) else { continue };
+        let own;
+        let samples = if tile > 1 {
+            &tiles[((y / tile) * tiles_x + x / tile) as usize]
+        } else {
+            own = draw(i as u32);
+            &own
+        };
+        let mut directions = Vec::with_capacity(samples.len());
+        for &(es, light_a) in samples {
             let cos_i = p.normal.dot(es.wi) as f64;
             let f = if cos_i > 0.0 { brdf.eval(wo, es.wi, p.normal) } else { Vec3::ZERO };
-            let light_a = env_band.at(es.wi);
             let brdf_a = table.map_or(0.0, |t| t.at(es.wi, wo, p.normal));
             let r = Reflection {
                 cos_i: cos_i.max(0.0),
@@ -234,6 +254,11 @@ pub fn analyse(scene: &Scene, view: &Camera, g: &GBuffer, opts: &BandwidthOption
     } else {
         (0..n).into_par_iter().map(analyse_pixel).collect()
     };
+    tracing::debug!(
+        tables_and_curvature = tables_done,
+        pixels = start.elapsed().as_secs_f64() - tables_done,
+        "bandwidth: analysis seconds"
+    );
     Analysis {
         bandwidth: per_pixel.iter().map(|t| t.0).collect(),
         level: per_pixel.iter().map(|t| t.1).collect(),

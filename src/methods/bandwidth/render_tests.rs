@@ -211,3 +211,28 @@ fn a_pass_cut_in_its_extras_leaves_each_pixel_a_like_fraction_of_its_way() {
     }
     assert!(moved > 0 && moved < pixels as u32, "the cut fell inside the second sweep: {moved}");
 }
+
+/// Eq. 4's light directions shared by a tile of pixels (`light_tile`, the default 8) predict
+/// what each pixel's own do: the directions come from the same distribution, so the levels
+/// agree within one at nearly every pixel and the shaded share of the image is alike. With
+/// `light_tile` 1 every pixel draws its own (the paper's analysis).
+#[test]
+fn light_directions_shared_by_a_tile_predict_the_per_pixel_levels() {
+    use super::analysis::analyse;
+    let s = builtin("sky-spheres", 96, 64);
+    let j = job(s.clone(), Method::Bandwidth, 1, 5, 0);
+    let g = GBuffer::build(&s, &j.view);
+    assert_eq!(j.bandwidth.light_tile, 8, "the default this test is written for");
+    let tiled = analyse(&s, &j.view, &g, &j.bandwidth, j.seed);
+    let mut own_opts = j.bandwidth;
+    own_opts.light_tile = 1;
+    let own = analyse(&s, &j.view, &g, &own_opts, j.seed);
+    let n = tiled.level.len();
+    let far = tiled.level.iter().zip(&own.level).filter(|(a, b)| a.abs_diff(**b) > 1).count();
+    assert!(far * 50 < n, "{far} of {n} pixels' levels differ by more than one");
+    let shaded_share = |levels: &[i32]| levels.iter().map(|&l| 0.25f64.powi(l.max(0))).sum::<f64>() / n as f64;
+    let (a, b) = (shaded_share(&tiled.level), shaded_share(&own.level));
+    assert!((a / b - 1.0).abs() < 0.05, "shaded share {a} tiled, {b} per pixel");
+    // And the tiles do change the draws: the two analyses are not the same numbers.
+    assert_ne!(tiled.bandwidth, own.bandwidth);
+}

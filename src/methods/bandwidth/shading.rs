@@ -360,6 +360,7 @@ impl Strategy for BandwidthShading {
             let coarsest = coarsest_level(self.width, self.height);
             self.upsampling = Some(Upsampling::new(g, ctx.view, coarsest, &opts.upsample, opts.same_object));
             self.analysis_seconds = start.elapsed().as_secs_f64();
+            tracing::debug!(seconds = self.analysis_seconds, "bandwidth: analysis and upsampling setup");
         }
         let k = Uniform::pass_spp(job.initial_spp, ctx.pass, self.base_spp, job.halt.max_mean_spp);
         let levels = self.analysis.as_ref().map(|a| Self::pass_levels(a, ctx.pass, opts.level_step));
