@@ -295,10 +295,12 @@ impl BandwidthShading {
 impl BandwidthShading {
     /// The samples each pixel should have after a pass of mean `target` (`counts`), or None
     /// while they stay uniform: below `adaptive_from_spp`, with antialiasing levels, before
-    /// every pixel has two samples, or where no pixel varies.
+    /// every pixel has two samples, where no pixel varies, or with nothing to shade (then the
+    /// method is the plain path tracer, `uniform` bit for bit).
     fn adaptive_counts(&self, ctx: &PassContext, target: u32) -> Option<Vec<u32>> {
         let opts = &ctx.job.bandwidth;
-        if opts.adaptive_from_spp == 0 || target < opts.adaptive_from_spp || opts.antialiasing || self.base_spp < 2 {
+        let off = opts.adaptive_from_spp == 0 || target < opts.adaptive_from_spp || opts.antialiasing;
+        if off || !self.shades || self.base_spp < 2 {
             return None;
         }
         let s_hat = self.s_hat(ctx);
