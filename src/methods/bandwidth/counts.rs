@@ -1,9 +1,11 @@
-//! `bandwidth`'s camera samples per pixel (a departure, docs/methods.md §4.3): most of each pass
-//! goes where one camera sample of the pixel's estimate varies most.
+//! `bandwidth`'s camera samples per pixel (a departure, docs/methods.md §4.3): a share of each
+//! pass (`adaptive_share`, half) goes where one camera sample of the pixel's estimate varies
+//! most.
 //!
 //! The paper shares its integration samples by a bound on the shading's variance (Eq. 8, the
 //! lookups here); what is left in wedge's images is the noise of what each camera sample traces
-//! (shadows, bounces, antialiasing across objects' edges), which no bandwidth predicts. It is
+//! (shadows, bounces, antialiasing across objects' edges) and the spread of the shaded values
+//! inside the pixel (a distant texture), which no bandwidth predicts. It is
 //! measured: each pixel keeps the first and second moments of its samples' terms, and the
 //! variance of one sample's share of the pixel's estimate follows from them
 //! (`Moments::sample_variance`). The counts then go in proportion to its square root
