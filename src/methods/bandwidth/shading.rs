@@ -105,6 +105,9 @@ pub struct BandwidthShading {
     method_seconds: f64,
     /// Seconds of pass 0's analysis (the bandwidth prediction) and upsampling setup.
     analysis_seconds: f64,
+    /// Each pixel's `S_hat` as the last frame composed it: the pixels have not changed since,
+    /// so the next pass's counts read it rather than resolve it again.
+    s_hat: Vec<Option<[f64; 3]>>,
 }
 
 impl BandwidthShading {
@@ -123,6 +126,7 @@ impl BandwidthShading {
             dropped: 0,
             method_seconds: 0.0,
             analysis_seconds: 0.0,
+            s_hat: Vec::new(),
         }
     }
 
@@ -284,11 +288,11 @@ impl BandwidthShading {
         }
     }
 
-    /// Every pixel's estimate: `S_hat` plus its samples.
-    fn compose(&self, ctx: &PassContext) -> Vec<[f32; 3]> {
-        let s_hat = self.s_hat(ctx);
+    /// Every pixel's estimate: `S_hat` plus its samples (`S_hat` kept for the next pass).
+    fn compose(&mut self, ctx: &PassContext) -> Vec<[f32; 3]> {
+        self.s_hat = self.s_hat(ctx);
         let visibility = ctx.job.bandwidth.visibility;
-        self.pixels.iter().zip(&s_hat).map(|(px, s)| px.estimate(s.as_ref(), visibility)).collect()
+        self.pixels.iter().zip(&self.s_hat).map(|(px, s)| px.estimate(s.as_ref(), visibility)).collect()
     }
 }
 
@@ -303,11 +307,10 @@ impl BandwidthShading {
         if off || !self.shades || self.base_spp < 2 {
             return None;
         }
-        let s_hat = self.s_hat(ctx);
         let own: Vec<Option<f64>> = self
             .pixels
             .par_iter()
-            .zip(&s_hat)
+            .zip(&self.s_hat)
             .map(|(px, s)| {
                 let s = s.map(|s| (s[0] + s[1] + s[2]) / 3.0);
                 px.moments.sample_variance(px.n_whole + px.n_same, px.n_same, px.n_shaded, s, opts.visibility)
