@@ -202,6 +202,7 @@ impl AutoStrategy {
     /// penumbrae. The even part runs in `ROUNDS` sweeps over the image (`rounds`).
     fn trace(&mut self, ctx: &PassContext, before: u32, target: u32) -> Result<bool, RenderError> {
         let nl = self.lights.len();
+        self.mark_narrow_penumbrae(ctx);
         let Some(counts) =
             counts::adaptive_targets(&self.opts, target, ctx.job.bounces, self.width, &self.sums, &self.light_sums, nl)
         else {
@@ -218,6 +219,28 @@ impl AutoStrategy {
             }
         }
         Ok(true)
+    }
+
+    /// Marks each pixel-light whose visibility filter is narrower than `penumbra_max_width`
+    /// pixels at the samples it has (`LightSums::narrow`): there the filter cannot average the
+    /// visibility's noise over neighbours, so a camera sample in a penumbra takes
+    /// `penumbra_rays` light samples (`Sampling::run`). Before the first slopes every pixel
+    /// counts as narrow.
+    fn mark_narrow_penumbrae(&mut self, ctx: &PassContext) {
+        let (nl, limit) = (self.lights.len(), self.opts.penumbra_max_width as f32);
+        let Some(widths) = self.widths.as_ref() else { return };
+        if self.opts.penumbra_rays <= 1 || self.slopes.is_empty() {
+            return;
+        }
+        let t = Instant::now();
+        for l in 0..nl {
+            let slopes = |p: usize| self.slopes.get(p * nl + l).and_then(|s| s.get());
+            let sigma = widths.shadow(ctx, &self.lights[l], slopes, &self.sums, &self.opts);
+            for (p, w) in sigma.iter().enumerate() {
+                self.light_sums[p * nl + l].narrow = *w < limit;
+            }
+        }
+        self.method_seconds += t.elapsed().as_secs_f64();
     }
 
     /// Traces every pixel p up to min(`count(p)`, `target`) in the sweeps of `rounds`: a pass
@@ -250,6 +273,7 @@ impl AutoStrategy {
             slot: &self.slot,
             analysis_spp: self.opts.analysis_spp,
             r_block: self.opts.r_block,
+            penumbra_rays: self.opts.penumbra_rays,
         };
         let seed = self.seed;
         let results: Vec<Tally> = self

@@ -35,6 +35,15 @@ pub struct AutoOptions {
     /// r(x), the exact unshadowed light, is computed on the first this many samples of a pixel,
     /// then on one block of as many in four (methods.md §5.1).
     pub r_block: u32,
+    /// Light samples (shadow rays) per camera sample in a pixel whose earlier samples saw the
+    /// light both blocked and unblocked: a penumbra, where visibility rather than the pixel's
+    /// footprint is the noise and a light sample costs a fraction of a camera sample (the
+    /// soft-shadow paper samples its lights per pixel too, Mehta 2012 Sec. 5). 1: one per
+    /// camera sample everywhere.
+    pub penumbra_rays: u32,
+    /// ... only where the light's visibility filter (standard deviation) is narrower than this
+    /// many pixels: a wider one averages the visibility's noise over its neighbours already.
+    pub penumbra_max_width: f64,
     /// From the pass whose mean count reaches this many samples per pixel on, part of each
     /// pass's samples goes to the pixels whose shadowed direct light is noisiest (`counts.rs`);
     /// 0: the same count everywhere throughout.
@@ -92,6 +101,8 @@ impl Default for AutoOptions {
             beta: 20.0,
             sigma_z2_relative: 0.01,
             r_block: 16,
+            penumbra_rays: 4,
+            penumbra_max_width: 1.0,
             adaptive_from_spp: 4,
             adaptive_radius: 2,
             adaptive_share: 0.9,
@@ -139,6 +150,8 @@ impl Settable for AutoOptions {
             Setting::number("beta", 0.0, 1000.0),
             Setting::number("sigma_z2_relative", 0.0, 100.0),
             Setting::integer("r_block", 1, 1024),
+            Setting::integer("penumbra_rays", 1, 64),
+            Setting::number("penumbra_max_width", 0.0, 1e9),
             Setting::integer("adaptive_from_spp", 0, 1 << 20),
             Setting::integer("adaptive_radius", 0, 16),
             Setting::number("adaptive_share", 0.0, 1.0),
@@ -166,6 +179,8 @@ impl Settable for AutoOptions {
             "beta" => self.beta = v.number(),
             "sigma_z2_relative" => self.sigma_z2_relative = v.number(),
             "r_block" => self.r_block = v.integer() as u32,
+            "penumbra_rays" => self.penumbra_rays = v.integer() as u32,
+            "penumbra_max_width" => self.penumbra_max_width = v.number(),
             "adaptive_from_spp" => self.adaptive_from_spp = v.integer() as u32,
             "adaptive_radius" => self.adaptive_radius = v.integer() as usize,
             "adaptive_share" => self.adaptive_share = v.number(),

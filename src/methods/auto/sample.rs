@@ -80,6 +80,32 @@ pub(super) struct LightSums {
     pub r_n: u32,
     /// Extreme slopes of the analysis samples' occluded shadow rays.
     pub occ: OccluderRange,
+    /// Whether the light's visibility filter at this pixel is narrow
+    /// (`AutoStrategy::mark_narrow_penumbrae`).
+    pub narrow: bool,
+}
+
+impl LightSums {
+    /// Whether the pixel's samples so far found the light both blocked and unblocked, and its
+    /// filter is too narrow to average that noise away.
+    fn narrow_penumbra(&self) -> bool {
+        let (a, b) = (self.a[0] + self.a[1] + self.a[2], self.b[0] + self.b[1] + self.b[2]);
+        self.narrow && a > 0.0 && a < b
+    }
+}
+
+/// Light sample `ray` of `k` drawn at one camera sample: the sample's point `u` shifted by a
+/// rank-1 lattice (j / k, frac(j phi^-1)) modulo 1 (a Cranley-Patterson rotation), so that
+/// the k points spread over the light, each uniform in [0, 1)^2 as the estimate needs; ray 0
+/// is `u` itself.
+pub(super) fn lattice_shift(u: [f32; 2], ray: u32, k: u32) -> [f32; 2] {
+    if ray == 0 {
+        return u;
+    }
+    const INVERSE_GOLDEN: f32 = 0.618_034;
+    let frac = |x: f32| x - x.floor();
+    let shift = [ray as f32 / k as f32, frac(ray as f32 * INVERSE_GOLDEN)];
+    [frac(u[0] + shift[0]), frac(u[1] + shift[1])]
 }
 
 impl PixelSums {
@@ -149,7 +175,7 @@ const EDGE_COS: f32 = 0.9;
 
 impl Default for LightSums {
     fn default() -> Self {
-        LightSums { a: [0.0; 3], b: [0.0; 3], r: [0.0; 3], r_n: 0, occ: OccluderRange::NONE }
+        LightSums { a: [0.0; 3], b: [0.0; 3], r: [0.0; 3], r_n: 0, occ: OccluderRange::NONE, narrow: true }
     }
 }
 
@@ -163,6 +189,8 @@ pub(super) struct Sampling<'a> {
     pub analysis_spp: u32,
     /// See `r_due`.
     pub r_block: u32,
+    /// Light samples per camera sample in a penumbra (`AutoOptions::penumbra_rays`).
+    pub penumbra_rays: u32,
 }
 
 impl Sampling<'_> {
@@ -236,20 +264,27 @@ impl Sampling<'_> {
             match (light, slot) {
                 (Light::Rect(rect), Some(l)) => {
                     let s = &mut lights[*l];
-                    let Some(ls) = rect.sample(hit.p, u) else { continue };
-                    let Some((u, g)) = integrands(&brdf, &hit, wo, &ls) else { continue };
-                    rays += 1;
-                    let visible = s.occ.visible(scene, &hit, ls.point, analysis);
-                    for c in 0..3 {
-                        s.b[c] += u[c] as f64;
-                        if visible {
-                            s.a[c] += u[c] as f64;
+                    // In a penumbra several light samples, each weighing 1 / k, so that every
+                    // camera sample still counts once in A, B and the pixel's mean.
+                    let k = if s.narrow_penumbra() { self.penumbra_rays.max(1) } else { 1 };
+                    let share = 1.0 / k as f32;
+                    for ray in 0..k {
+                        let Some(ls) = rect.sample(hit.p, lattice_shift(u, ray, k)) else { continue };
+                        let Some((u, g)) = integrands(&brdf, &hit, wo, &ls) else { continue };
+                        let (u, g) = (u * share, g * share);
+                        rays += 1;
+                        let visible = s.occ.visible(scene, &hit, ls.point, analysis && ray == 0);
+                        for c in 0..3 {
+                            s.b[c] += u[c] as f64;
+                            if visible {
+                                s.a[c] += u[c] as f64;
+                            }
                         }
-                    }
-                    if visible {
-                        rest += g;
-                        diffuse_direct += u;
-                        shadowed_r += r_here;
+                        if visible {
+                            rest += g;
+                            diffuse_direct += u;
+                            shadowed_r += r_here * share;
+                        }
                     }
                 }
                 (Light::Rect(_), None) => {}

@@ -491,3 +491,69 @@ fn a_pixel_straddling_an_edge_is_guided_by_the_mean_of_its_normals() {
     assert_eq!(out[1], guide);
     assert_eq!(out[2], PackedGuide::INVALID);
 }
+
+/// In a penumbra a camera sample takes `penumbra_rays` light samples, each weighing a quarter:
+/// at equal camera samples (16 spp) the unfiltered direct light in `grids`' penumbrae (bars
+/// over a floor under a Gaussian light) has less noise, more rays are traced, and the image
+/// keeps the reference's energy. (In the area-lit box at this size the penumbrae are a pixel
+/// or two wide, and the pixel's footprint, which more light samples leave alone, dominates.)
+#[test]
+fn penumbra_rays_lower_the_noise_at_equal_samples_and_keep_the_energy() {
+    let s = builtin("grids", 48, 36);
+    let reference = reference(s.clone(), 0, 1024.0);
+    let (w, h) = (reference.width as usize, reference.height as usize);
+    // The penumbrae: pixels whose converged light differs from a neighbour's by over 20%.
+    let lum = |p: usize| reference.color[p].iter().sum::<f32>();
+    let penumbra: Vec<usize> = (0..w * h)
+        .filter(|&p| {
+            let (x, y) = (p % w, p / w);
+            let near = [(x.wrapping_sub(1), y), (x + 1, y), (x, y.wrapping_sub(1)), (x, y + 1)];
+            near.iter().any(|&(nx, ny)| nx < w && ny < h && (lum(ny * w + nx) - lum(p)).abs() > 0.2 * lum(p).max(0.05))
+        })
+        .collect();
+    assert!(penumbra.len() > 40, "{} pixels", penumbra.len());
+    let run = |rays: u32| {
+        let (mut se, mut traced, mut energy) = (0.0f64, 0u64, 0.0f64);
+        for seed in 1..=4 {
+            let mut j = job(s.clone(), Method::Auto, 3, seed, 0);
+            (j.auto.penumbra_rays, j.auto.penumbra_max_width) = (rays, f64::INFINITY);
+            let f = all_frames(&j).pop().unwrap();
+            let raw = f.unfiltered_color();
+            se += penumbra
+                .iter()
+                .map(|&p| (0..3).map(|c| (raw[p][c] - reference.color[p][c]).powi(2) as f64).sum::<f64>())
+                .sum::<f64>();
+            traced += f.stats.rays_traced;
+            energy += mean(&f.color) / 4.0;
+        }
+        ((se / (12 * penumbra.len()) as f64).sqrt(), traced, energy)
+    };
+    let (one, four) = (run(1), run(4));
+    assert!(four.0 < 0.8 * one.0, "penumbra RMSE {} with 4 rays against {} with 1", four.0, one.0);
+    assert!(four.1 as f64 > 1.1 * one.1 as f64, "rays {} against {}", four.1, one.1);
+    let r = mean(&reference.color);
+    for (rays, (_, _, m)) in [(1, one), (4, four)] {
+        assert!((m / r - 1.0).abs() < 0.02, "{rays} rays: mean {m} vs {r}");
+    }
+}
+
+/// The k light samples of a camera sample: the first is its own point, all lie in [0, 1)^2, and
+/// their first coordinates are k apart by 1 / k (modulo 1), so they spread over the light.
+#[test]
+fn a_camera_sample_s_light_samples_spread_over_the_square() {
+    use super::sample::lattice_shift;
+    for u in [[0.0f32, 0.0], [0.3, 0.9], [0.999_999_9, 0.999_999_9], [0.5, 0.25]] {
+        for k in 1..=8u32 {
+            assert_eq!(lattice_shift(u, 0, k), u);
+            let mut firsts: Vec<f32> = (0..k).map(|j| lattice_shift(u, j, k)[0]).collect();
+            for j in 0..k {
+                let v = lattice_shift(u, j, k);
+                assert!(v.iter().all(|&c| (0.0..1.0).contains(&c)), "{u:?} ray {j} of {k}: {v:?}");
+            }
+            firsts.sort_by(f32::total_cmp);
+            for pair in firsts.windows(2) {
+                assert!((pair[1] - pair[0] - 1.0 / k as f32).abs() < 1e-5, "{u:?}, k {k}: {firsts:?}");
+            }
+        }
+    }
+}
