@@ -430,11 +430,13 @@ def to_mitsuba(scene, width, height, spp, bounces, base_dir="."):
         m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = u / 2, v / 2, n / np.linalg.norm(n), c + (u + v) / 2
         radiance = {"type": "rgb", "value": rgb(r["radiance"])}
         if r.get("profile") == "EMISSION_PROFILE_GAUSSIAN":
-            # exp(-|y - c|^2 / (2 sigma^2)), sigma = sqrt(area)/2, over the rectangle's uv.
+            # exp(-|y - c|^2 / (2 sigma^2)) over the rectangle's uv, sigma the scene's
+            # `gaussianSigma` (scene units) or, when absent or 0, sqrt(area)/2.
             res = 256
             s = np.linspace(-1 + 1 / res, 1 - 1 / res, res)
             xx, yy = np.meshgrid(s, s)
-            sigma2 = np.linalg.norm(n) / 4
+            given = float(r.get("gaussianSigma", 0.0) or 0.0)
+            sigma2 = given * given if given > 0 else np.linalg.norm(n) / 4
             w = np.exp(-((xx * np.linalg.norm(u) / 2) ** 2 + (yy * np.linalg.norm(v) / 2) ** 2) / (2 * sigma2))
             img = w[:, :, None] * np.array(rgb(r["radiance"]))[None, None, :]
             radiance = {"type": "bitmap", "bitmap": mi.Bitmap(img.astype(np.float32)), "raw": True, "filter_type": "bilinear"}
