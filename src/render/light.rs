@@ -176,12 +176,18 @@ impl RectLight {
     }
 
     /// The same light moved to `corner` and scaled by `scale` (its profile with it).
+    /// The profile's sampling tables depend only on the edges over sigma, which scaling keeps,
+    /// so they are shared rather than built again; the far-field rule's nodes move with it.
     pub fn rescaled(&self, corner: Vec3, scale: f32) -> Self {
         let (u, v) = (self.edge_u * scale, self.edge_v * scale);
-        RectLight::with_sigma(corner, u, v, self.radiance, self.profile, self.sigma * scale)
+        let mut light = RectLight::plain(corner, u, v, self.radiance, self.profile, self.sigma * scale);
+        light.profile_sampler = self.profile_sampler.clone();
+        light.gauss_rule = light.far_rule();
+        light
     }
 
-    /// The one constructor: the Gaussian tables are built once, for the final sigma.
+    /// The constructor (`rescaled` aside): the Gaussian tables are built once, for the final
+    /// sigma.
     fn with_sigma(
         corner: Vec3,
         edge_u: Vec3,
@@ -190,6 +196,17 @@ impl RectLight {
         profile: EmissionProfile,
         sigma: f32,
     ) -> Self {
+        let mut light = RectLight::plain(corner, edge_u, edge_v, radiance, profile, sigma);
+        if light.separable_gaussian() {
+            let (len_u, len_v) = (edge_u.length() as f64, edge_v.length() as f64);
+            light.profile_sampler = Some(Box::new(ProfileSampler::new(len_u, len_v, sigma as f64)));
+        }
+        light.gauss_rule = light.far_rule();
+        light
+    }
+
+    /// The light without its Gaussian tables.
+    fn plain(corner: Vec3, edge_u: Vec3, edge_v: Vec3, radiance: Vec3, profile: EmissionProfile, sigma: f32) -> Self {
         let c = edge_u.cross(edge_v);
         RectLight {
             corner,
@@ -203,25 +220,23 @@ impl RectLight {
             gauss_rule: FarRule::default(),
             profile_sampler: None,
         }
-        .with_profile_tables()
     }
 
-    /// Gaussian rectangles: the far-field rule (`far_gaussian_irradiance`, `gaussian_rule`) and
-    /// the importance sampler (`ProfileSampler`).
-    fn with_profile_tables(mut self) -> Self {
-        // The rule needs a separable profile: a rectangle, not a skewed parallelogram.
+    /// A Gaussian profile over a rectangle, not a skewed parallelogram: the profile is then
+    /// separable, which the far-field rule (`far_gaussian_irradiance`, `gaussian_rule`) and the
+    /// importance sampler (`ProfileSampler`) need.
+    fn separable_gaussian(&self) -> bool {
         let orthogonal = self.edge_u.dot(self.edge_v).abs() <= 1e-4 * self.edge_u.length() * self.edge_v.length();
-        if self.profile == EmissionProfile::Gaussian && orthogonal {
-            let (len_u, len_v, sigma) = (self.edge_u.length() as f64, self.edge_v.length() as f64, self.sigma as f64);
-            self.profile_sampler = Some(Box::new(ProfileSampler::new(len_u, len_v, sigma)));
-            self.gauss_rule = FarRule::new(&gaussian_rule(
-                self.center().as_dvec3(),
-                self.edge_u.as_dvec3(),
-                self.edge_v.as_dvec3(),
-                self.sigma as f64,
-            ));
+        self.profile == EmissionProfile::Gaussian && orthogonal
+    }
+
+    /// The far-field rule of a separable Gaussian light (empty otherwise).
+    fn far_rule(&self) -> FarRule {
+        if !self.separable_gaussian() {
+            return FarRule::default();
         }
-        self
+        let (c, u, v) = (self.center().as_dvec3(), self.edge_u.as_dvec3(), self.edge_v.as_dvec3());
+        FarRule::new(&gaussian_rule(c, u, v, self.sigma as f64))
     }
 
     pub fn center(&self) -> Vec3 {

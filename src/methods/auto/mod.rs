@@ -202,7 +202,6 @@ impl AutoStrategy {
     /// penumbrae. The even part runs in `ROUNDS` sweeps over the image (`rounds`).
     fn trace(&mut self, ctx: &PassContext, before: u32, target: u32) -> Result<bool, RenderError> {
         let nl = self.lights.len();
-        self.mark_narrow_penumbrae(ctx);
         let Some(counts) =
             counts::adaptive_targets(&self.opts, target, ctx.job.bounces, self.width, &self.sums, &self.light_sums, nl)
         else {
@@ -221,26 +220,33 @@ impl AutoStrategy {
         Ok(true)
     }
 
+    /// Each light's visibility filter width (standard deviation, pixels) at every pixel, from
+    /// the slopes and the samples the pixels have: what the frame filters with and what the
+    /// next pass's penumbra marks read.
+    fn shadow_widths(&self, ctx: &PassContext) -> Vec<Vec<f32>> {
+        let (nl, widths) = (self.lights.len(), self.widths.as_ref().expect("set up in pass 0"));
+        (0..nl)
+            .map(|l| {
+                let slopes = |p: usize| self.slopes.get(p * nl + l).and_then(|s| s.get());
+                widths.shadow(ctx, &self.lights[l], slopes, &self.sums, &self.opts)
+            })
+            .collect()
+    }
+
     /// Marks each pixel-light whose visibility filter is narrower than `penumbra_max_width`
-    /// pixels at the samples it has (`LightSums::narrow`): there the filter cannot average the
-    /// visibility's noise over neighbours, so a camera sample in a penumbra takes
-    /// `penumbra_rays` light samples (`Sampling::run`). Before the first slopes every pixel
-    /// counts as narrow.
-    fn mark_narrow_penumbrae(&mut self, ctx: &PassContext) {
+    /// pixels (`LightSums::narrow`): there the filter cannot average the visibility's noise
+    /// over neighbours, so a camera sample in a penumbra takes `penumbra_rays` light samples
+    /// (`Sampling::run`). Until the first frame every pixel counts as narrow.
+    fn mark_narrow_penumbrae(&mut self, shadow_widths: &[Vec<f32>]) {
         let (nl, limit) = (self.lights.len(), self.opts.penumbra_max_width as f32);
-        let Some(widths) = self.widths.as_ref() else { return };
-        if self.opts.penumbra_rays <= 1 || self.slopes.is_empty() {
+        if self.opts.penumbra_rays <= 1 {
             return;
         }
-        let t = Instant::now();
-        for l in 0..nl {
-            let slopes = |p: usize| self.slopes.get(p * nl + l).and_then(|s| s.get());
-            let sigma = widths.shadow(ctx, &self.lights[l], slopes, &self.sums, &self.opts);
+        for (l, sigma) in shadow_widths.iter().enumerate() {
             for (p, w) in sigma.iter().enumerate() {
                 self.light_sums[p * nl + l].narrow = *w < limit;
             }
         }
-        self.method_seconds += t.elapsed().as_secs_f64();
     }
 
     /// Traces every pixel p up to min(`count(p)`, `target`) in the sweeps of `rounds`: a pass
@@ -312,7 +318,7 @@ impl AutoStrategy {
     }
 
     /// Builds the frame: filters each part and composes.
-    fn frame(&self, ctx: &PassContext) -> Frame {
+    fn frame(&self, ctx: &PassContext, shadow_widths: &[Vec<f32>]) -> Frame {
         let n = self.width * self.height;
         let nl = self.lights.len();
         let widths = self.widths.as_ref().expect("set up in pass 0");
@@ -336,12 +342,11 @@ impl AutoStrategy {
                 let at = |p: usize| &self.light_sums[p * nl + l];
                 let raw: Vec<[f32; 3]> =
                     (0..n).into_par_iter().map(|p| ratio(at(p).a, at(p).b).map(|x| x as f32)).collect();
-                let slopes = |p: usize| self.slopes.get(p * nl + l).and_then(|s| s.get());
-                let sigma = widths.shadow(ctx, &self.lights[l], slopes, &self.sums, &self.opts);
+                let sigma = &shadow_widths[l];
                 let guides = invalid_unless(&diffuse_guides, &|p| at(p).b.iter().any(|&b| b > 0.0));
                 let mut vis = raw;
-                gather(&guides, &sigma, self.width, &mut vis, &o);
-                max_into(&mut shadow_width, &sigma);
+                gather(&guides, sigma, self.width, &mut vis, &o);
+                max_into(&mut shadow_width, sigma);
                 vis
             })
             .collect();
@@ -513,7 +518,9 @@ impl Strategy for AutoStrategy {
                 w.update_reflectors(sums, opts);
             }
         }
-        let mut frame = self.frame(ctx);
+        let shadow_widths = self.shadow_widths(ctx);
+        let mut frame = self.frame(ctx, &shadow_widths);
+        self.mark_narrow_penumbrae(&shadow_widths);
         tracing::debug!(pass = ctx.pass, seconds = t.elapsed().as_secs_f64(), "auto: analysis and filters");
         self.method_seconds += t.elapsed().as_secs_f64();
         frame.stats.method_seconds = self.method_seconds;
