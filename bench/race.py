@@ -23,7 +23,8 @@ denoiser and no filter touches and which would otherwise dominate the error), as
 figures leave out the light's own pixels.
 FLIP is LDR-FLIP (flip-evaluator) on sRGB-encoded images clamped to [0, 1].
 
-A method `M/N` is wedge's method M with `--upsample N` (lobe-aware and normal-aware: indirect
+A method `M@base` is wedge's method M run by the build `--wedge-base` names (a before/after
+comparison in one run). A method `M/N` is wedge's method M with `--upsample N` (lobe-aware and normal-aware: indirect
 light traced at every N-th pixel and upsampled). A method `M+oidn` is wedge's method M writing its denoiser inputs (`--aovs`) and OIDN run on
 its frame with them, as for Mitsuba: its seconds are the render's plus OIDN's, and its row at
 a budget is read off its curve over the budgets like Mitsuba's.
@@ -91,6 +92,7 @@ def parse_args(argv=None):
     ap.add_argument("--set", action="append", default=[], metavar="GROUP.NAME=VALUE",
                     help="a method option for every wedge render (`wedge render --set`), repeatable")
     ap.add_argument("--save", help="directory for the images (EXR and PNG, first seed)")
+    ap.add_argument("--wedge-base", help="an earlier wedge build, which methods named M@base run")
     ap.add_argument("--out", help="Markdown report (a CSV is written beside it)")
     ap.add_argument("--probe-llvm", action="store_true", help=argparse.SUPPRESS)
     return ap.parse_args(argv)
@@ -229,12 +231,20 @@ def wedge_runs(args, mc, path, bounces, metrics):
     with tempfile.TemporaryDirectory() as tmp:
         for method in args.methods:
             base, oidn = (method[:-5], True) if method.endswith("+oidn") else (method, False)
+            # `M@base`: M rendered by the --wedge-base binary (an earlier build, for a before/after
+            # comparison in one run).
+            base, _, other = base.partition("@")
+            binary = args.wedge_base if other == "base" else mc.WEDGE
+            if other and other != "base":
+                raise SystemExit(f"{method}: the only build suffix is @base")
+            if other and not (binary and os.path.exists(binary)):
+                raise SystemExit(f"{method}: --wedge-base names no binary")
             # `M/N`: M with its indirect light traced at every N-th pixel and upsampled.
             base, _, factor = base.partition("/")
             for budget in args.budgets:
                 rows = []
                 for seed in range(1, args.seeds + 1):
-                    cmd = [mc.WEDGE, "render", path, "--out", tmp, "--width", str(args.width), "--height", str(args.height),
+                    cmd = [binary, "render", path, "--out", tmp, "--width", str(args.width), "--height", str(args.height),
                            "--seed", str(seed), "--method", base, "--time", str(budget), "--bounces", str(bounces)]
                     if oidn:
                         cmd.append("--aovs")

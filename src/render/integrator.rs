@@ -1,13 +1,15 @@
 //! Radiance along camera rays: next-event estimation from every light plus importance-sampled
 //! bounces. Emitters hit by bounce rays add nothing (their light arrives by next-event
-//! estimation), so no light path is counted twice. The environment's direct light is the one
-//! estimate with two strategies (a direction drawn from the light and one drawn from the BRDF,
-//! combined by multiple importance sampling, `environment_direct`); bounce rays that escape
-//! add nothing either, for the same reason.
+//! estimation), so no light path is counted twice. The environment's direct light is estimated
+//! with two strategies (a direction drawn from the light and one drawn from the BRDF, combined
+//! by multiple importance sampling, `environment_direct`), and so is the glossy part of a rect
+//! light's in scenes with glossy materials (`rect_direct`, `mis`): both draw their own
+//! BRDF-sampled direction. Bounce rays that escape add nothing either, for the same reason.
 use super::environment::EnvironmentLight;
 use super::frame_basis::{cosine_hemisphere, to_world};
-use super::light::{Light, LightSample};
+use super::light::{Light, LightSample, RectLight};
 use super::material::{Brdf, Material};
+use super::mis::{lobe_term, power_heuristic};
 use super::sampler::PixelSampler;
 use super::scene::{Scene, Surface};
 use glam::Vec3;
@@ -31,22 +33,25 @@ pub enum DirectLights {
     SkipEnvironment,
 }
 
-/// The sample numbers one light's direct-light estimate uses: a pair for the light, and for
-/// the environment also a lobe choice and a pair for its BRDF-sampled direction. Drawn for
-/// every light at every vertex, used or not, so that the streams of the other dimensions do
-/// not move.
+/// The sample numbers one light's direct-light estimate uses: a pair for the light; for the
+/// environment also a lobe choice and a pair for its BRDF-sampled direction; for a rect light in
+/// a scene with glossy materials (`Scene::glossy`) a pair for its lobe-sampled direction
+/// (`mis`). Drawn for every light at every vertex, used or not, so that the streams of the other
+/// dimensions do not move.
 #[derive(Clone, Copy, Debug)]
 pub struct LightDims {
     pub light: [f32; 2],
     pub brdf: Option<(f32, [f32; 2])>,
+    pub lobe: Option<[f32; 2]>,
 }
 
 impl LightDims {
     #[inline]
-    pub fn draw(light: &Light, sampler: &mut PixelSampler) -> Self {
+    pub fn draw(light: &Light, glossy: bool, sampler: &mut PixelSampler) -> Self {
         let u = sampler.next_2d();
         let brdf = matches!(light, Light::Environment(_)).then(|| (sampler.next_1d(), sampler.next_2d()));
-        LightDims { light: u, brdf }
+        let lobe = (glossy && matches!(light, Light::Rect(_))).then(|| sampler.next_2d());
+        LightDims { light: u, brdf, lobe }
     }
 }
 
@@ -67,7 +72,7 @@ pub fn direct_light_of(
     let mut sum = Vec3::ZERO;
     let mut rays = 0;
     for light in &scene.lights {
-        let dims = LightDims::draw(light, sampler);
+        let dims = LightDims::draw(light, scene.glossy, sampler);
         let skipped = match which {
             DirectLights::All => false,
             DirectLights::SkipRect => matches!(light, Light::Rect(_)),
@@ -95,7 +100,7 @@ pub fn light_radiance(
     dims: &LightDims,
 ) -> (Vec3, u32) {
     let sample = match light {
-        Light::Rect(r) => r.sample(s.p, dims.light),
+        Light::Rect(r) => return rect_direct(scene, s, wo, brdf, r, dims.light, dims.lobe),
         Light::Point(p) => p.sample(s.p),
         Light::Environment(e) => {
             let (u_lobe, u_brdf) = dims.brdf.unwrap_or((0.5, [0.5, 0.5]));
@@ -108,16 +113,45 @@ pub fn light_radiance(
     }
 }
 
-/// The power heuristic (beta = 2, Veach 1997 Sec. 9.2.4) for a sample drawn with density `a`
-/// that the other strategy would draw with density `b`, in a ratio form that neither overflows
-/// nor divides 0 by 0 (a > 0 for any drawn sample).
-#[inline]
-fn power_heuristic(a: f32, b: f32) -> f32 {
-    if !(a > 0.0) {
-        return 0.0;
+/// A rect light's direct light at `s` towards `wo` from the light sample `u_light` and, when
+/// `u_lobe` is given, the lobe sample (its glossy part then weighed against the light sample's):
+/// the radiance and the shadow rays traced. Without `u_lobe` it is light sampling alone.
+pub fn rect_direct(
+    scene: &Scene,
+    s: &Surface,
+    wo: Vec3,
+    brdf: &Brdf,
+    rect: &RectLight,
+    u_light: [f32; 2],
+    u_lobe: Option<[f32; 2]>,
+) -> (Vec3, u32) {
+    let Some(u_lobe) = u_lobe else {
+        return match rect.sample(s.p, u_light) {
+            Some(ls) => light_sample_radiance(scene, s, wo, brdf, &ls),
+            None => (Vec3::ZERO, 0),
+        };
+    };
+    let (mut sum, mut rays) = (Vec3::ZERO, 0);
+    if let Some(ls) = rect.sample(s.p, u_light) {
+        let cos = s.ns.dot(ls.wi);
+        if cos > 0.0 && s.ng.dot(ls.wi) > 0.0 && s.ns.dot(wo) > 0.0 {
+            let (f_s, p_lobe) = brdf.specular_and_pdf(wo, ls.wi, s.ns);
+            let f = brdf.kd * (1.0 / std::f32::consts::PI) + f_s * power_heuristic(ls.pdf, p_lobe);
+            if f != Vec3::ZERO {
+                rays += 1;
+                if !scene.occluded(s, ls.point) {
+                    sum += f * ls.weight * cos;
+                }
+            }
+        }
     }
-    let r = b / a;
-    1.0 / (1.0 + r * r)
+    if let Some((value, point)) = lobe_term(s, wo, brdf, rect, u_lobe, 1) {
+        rays += 1;
+        if !scene.occluded(s, point) {
+            sum += value;
+        }
+    }
+    (sum, rays)
 }
 
 /// The environment's direct light at `s` towards `wo`: one direction drawn from the light

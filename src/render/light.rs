@@ -61,6 +61,20 @@ pub struct LightSample {
     /// Incident radiance divided by the density, per unit solid angle measure already folded in:
     /// the direct-light estimate is `f(wo, wi) * cos_x * weight`.
     pub weight: Vec3,
+    /// The density of `wi` per unit solid angle at the shading point (infinite for a point
+    /// light, which no other strategy can find): what multiple importance sampling weighs.
+    pub pdf: f32,
+}
+
+/// Where a ray from a shading point meets a rectangular light's emitting side.
+#[derive(Clone, Copy, Debug)]
+pub struct LightHit {
+    /// The light point (for the shadow ray).
+    pub point: Vec3,
+    /// Radiance leaving that point towards the shading point.
+    pub radiance: Vec3,
+    /// The density per unit solid angle with which `RectLight::sample` draws this direction.
+    pub pdf: f32,
 }
 
 /// Importance sampling of a Gaussian rectangle's profile, one edge at a time (the profile of a
@@ -156,6 +170,14 @@ impl EdgeDistribution {
         let (x0, x1) = (self.inverse[j], self.inverse[j + 1]);
         let width = x1 - x0;
         (x0 + (s - j as f32) * width, width * N as f32)
+    }
+
+    /// The reciprocal density `place` gives edge parameter `x` in [0, 1]: that of the segment
+    /// holding it (a binary search; `place`'s inverse, for a point found by a ray).
+    fn reciprocal_density(&self, x: f32) -> f32 {
+        const N: usize = ProfileSampler::SEGMENTS;
+        let j = self.inverse.partition_point(|&e| e <= x).clamp(1, N) - 1;
+        (self.inverse[j + 1] - self.inverse[j]) * N as f32
     }
 }
 
@@ -336,7 +358,40 @@ impl RectLight {
             return None;
         }
         let weight = self.radiance * (self.profile_weight(y) * cos_l * inv_density / dist2);
-        weight.is_finite().then_some(LightSample { wi, dist, point: y, weight })
+        let pdf = dist2 / (cos_l * inv_density);
+        weight.is_finite().then_some(LightSample { wi, dist, point: y, weight, pdf })
+    }
+
+    /// Where the ray from `x` along unit `w` meets the light's emitting side, with the density
+    /// `sample` would draw that direction with (so that a direction found by another strategy
+    /// can be weighed against light sampling); None where it misses or meets the back.
+    #[inline]
+    pub fn hit(&self, x: Vec3, w: Vec3) -> Option<LightHit> {
+        let cos_l = -self.normal.dot(w);
+        if !(cos_l > 0.0) {
+            return None;
+        }
+        let t = self.normal.dot(x - self.corner) / cos_l;
+        if !(t > 0.0 && t.is_finite()) {
+            return None;
+        }
+        let y = x + t * w;
+        // The edge parameters of y: its offset against the dual basis of the two edges.
+        let d = y - self.corner;
+        let c = self.edge_u.cross(self.edge_v);
+        let inv = 1.0 / c.length_squared();
+        let a = d.cross(self.edge_v).dot(c) * inv;
+        let b = self.edge_u.cross(d).dot(c) * inv;
+        if !((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)) {
+            return None;
+        }
+        let inv_density = match &self.profile_sampler {
+            None => self.area,
+            Some(p) => self.area * (p.u.reciprocal_density(a) * p.v.reciprocal_density(b)),
+        };
+        let pdf = t * t / (cos_l * inv_density);
+        let radiance = self.radiance * self.profile_weight(y);
+        pdf.is_finite().then_some(LightHit { point: y, radiance, pdf })
     }
 }
 
@@ -660,7 +715,8 @@ impl PointLight {
         }
         let dist = dist2.sqrt();
         let weight = self.intensity / dist2;
-        weight.is_finite().then_some(LightSample { wi: d / dist, dist, point: self.position, weight })
+        let pdf = f32::INFINITY;
+        weight.is_finite().then_some(LightSample { wi: d / dist, dist, point: self.position, weight, pdf })
     }
 }
 

@@ -198,11 +198,7 @@ impl Brdf {
         if self.ks == Vec3::ZERO || n.dot(wo) <= 0.0 {
             return None;
         }
-        let wi = match self.model {
-            GlossyModel::Phong => to_world(reflect(wo, n), power_cosine(u, self.exponent)),
-            GlossyModel::BlinnPhong => reflect(wo, to_world(n, power_cosine(u, self.exponent))),
-        }
-        .normalize_or_zero();
+        let wi = self.lobe_direction(wo, n, u);
         let cos_i = n.dot(wi);
         if cos_i <= 0.0 {
             return None;
@@ -210,6 +206,48 @@ impl Brdf {
         let (f, pdf) = self.lobe(wo, wi, n);
         let w = f * cos_i / pdf;
         (pdf > 0.0 && w.is_finite()).then_some((wi, w))
+    }
+
+    /// The direction of `u` under the glossy lobe (about the mirror direction for Phong, of the
+    /// half vector for Blinn-Phong).
+    #[inline]
+    fn lobe_direction(&self, wo: Vec3, n: Vec3, u: [f32; 2]) -> Vec3 {
+        match self.model {
+            GlossyModel::Phong => to_world(reflect(wo, n), power_cosine(u, self.exponent)),
+            GlossyModel::BlinnPhong => reflect(wo, to_world(n, power_cosine(u, self.exponent))),
+        }
+        .normalize_or_zero()
+    }
+
+    /// Samples wi from the glossy lobe alone, for a strategy that estimates the glossy part on
+    /// its own (`mis::lobe_term`): wi, the glossy part of f (ks times the lobe) and the density
+    /// `specular_and_pdf` gives. None below the surface or where the lobe is empty.
+    pub fn sample_lobe(&self, wo: Vec3, n: Vec3, u: [f32; 2]) -> Option<BrdfSample> {
+        let wi = self.sample_lobe_direction(wo, n, u)?;
+        let (f, pdf) = self.specular_and_pdf(wo, wi, n);
+        (pdf > 0.0 && pdf.is_finite()).then_some(BrdfSample { wi, f, pdf })
+    }
+
+    /// The direction alone of `sample_lobe` (None below the surface or without a lobe): a
+    /// caller that keeps only some directions evaluates the lobe for those.
+    #[inline]
+    pub fn sample_lobe_direction(&self, wo: Vec3, n: Vec3, u: [f32; 2]) -> Option<Vec3> {
+        if self.ks == Vec3::ZERO || n.dot(wo) <= 0.0 {
+            return None;
+        }
+        let wi = self.lobe_direction(wo, n, u);
+        (n.dot(wi) > 0.0).then_some(wi)
+    }
+
+    /// The glossy part of f(wo, wi) (ks times the lobe) and the density with which
+    /// `sample_lobe` draws wi; zeros below the surface or without a lobe.
+    #[inline]
+    pub fn specular_and_pdf(&self, wo: Vec3, wi: Vec3, n: Vec3) -> (Vec3, f32) {
+        if self.ks == Vec3::ZERO || n.dot(wi) <= 0.0 || n.dot(wo) <= 0.0 {
+            return (Vec3::ZERO, 0.0);
+        }
+        let (f, pdf) = self.lobe(wo, wi, n);
+        (self.ks * f, pdf)
     }
 
     /// Importance-samples wi: cosine for the diffuse part, the power-cosine lobe for the glossy

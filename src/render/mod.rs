@@ -20,6 +20,7 @@ pub mod huge_pages;
 pub mod integrator;
 pub mod light;
 pub mod material;
+pub mod mis;
 pub mod sampler;
 pub mod scene;
 pub mod sky;

@@ -111,6 +111,7 @@ impl SceneBuilder {
             default_camera: self.camera,
             origin: center,
             geometry: Arc::new(self.geometry.build(self.bvh_quality, self.bvh_layout)),
+            glossy: any_glossy(&self.materials),
             materials: self.materials,
             lights: self.lights,
             light_tris,
@@ -159,6 +160,14 @@ pub struct Scene {
     pub extent: Vec3,
     pub objects: u32,
     pub degenerate_triangles: usize,
+    /// Whether any material has a glossy lobe: then every rect light also draws a lobe-sampled
+    /// direction at each vertex (`mis`). Set from `materials` when the scene is built.
+    pub glossy: bool,
+}
+
+/// Whether any of `materials` has a glossy lobe (`Scene::glossy`).
+fn any_glossy(materials: &[Material]) -> bool {
+    materials.iter().any(|m| matches!(m, Material::Glossy { .. }))
 }
 
 /// A shading point: a hit with its geometry resolved and normals facing the incoming ray.
@@ -246,6 +255,7 @@ impl Scene {
             default_camera: self.default_camera.clone(),
             origin,
             geometry,
+            glossy: any_glossy(&b.materials),
             materials: b.materials,
             lights: b.lights,
             light_tris,

@@ -40,6 +40,7 @@ use crate::render::huge_pages::filled;
 use crate::render::integrator::{emitted, radiance_from, DirectLights, PathResult};
 use crate::render::light::{EmissionProfile, Light, LightSample, RectLight};
 use crate::render::material::{Brdf, Material};
+use crate::render::mis::{light_weight, lobe_term};
 use crate::render::sampler::PixelSampler;
 use crate::render::scene::Scene;
 use crate::render::scene::Surface;
@@ -703,6 +704,8 @@ fn sample_pixel(
         // Every light's dimensions are drawn whether used or not, so sample streams stay
         // aligned (a missed camera ray draws none, but then nothing else is drawn either).
         let light_u = sampler.next_2d();
+        // The glossy part's second strategy, a direction from the lobe (`mis`).
+        let lobe_u = scene.glossy.then(|| sampler.next_2d());
         let s = &mut sums[l];
         if s.n >= want[l].n {
             continue;
@@ -724,8 +727,16 @@ fn sample_pixel(
                 s.r2 += channel_mean(r.to_array()).powi(2);
             }
         }
+        if let Some((g, point)) = lobe_u.and_then(|ul| lobe_term(&hit, wo, &brdf, rect, ul, 1)) {
+            rays += 1;
+            if !scene.occluded(&hit, point) {
+                for c in 0..3 {
+                    s.spec[c] += g[c] as f64;
+                }
+            }
+        }
         let Some(ls) = rect.sample(hit.p, light_u) else { continue };
-        let Some((u, g)) = integrands(&brdf, &hit, wo, &ls) else { continue };
+        let Some((u, g)) = integrands(&brdf, &hit, wo, &ls, lobe_u.is_some(), 1) else { continue };
         rays += 1;
         let visible = s.occ.visible(scene, &hit, ls.point, record_slopes);
         for c in 0..3 {
@@ -757,8 +768,16 @@ fn sample_pixel(
 
 /// The diffuse integrand u = kd/pi Le G / pdf (the visibility's weight, Eq. 10) and the glossy
 /// one of light sample `ls` at `hit` seen from `wo`; None where the sample is below the surface's
-/// horizon, or carries nothing, or is not finite.
-pub(crate) fn integrands(brdf: &Brdf, hit: &Surface, wo: Vec3, ls: &LightSample) -> Option<(Vec3, Vec3)> {
+/// horizon, or carries nothing, or is not finite. With `lobe_strategy` (`mis`), the glossy one
+/// is weighed against a lobe sample and `n_light` light samples.
+pub(crate) fn integrands(
+    brdf: &Brdf,
+    hit: &Surface,
+    wo: Vec3,
+    ls: &LightSample,
+    lobe_strategy: bool,
+    n_light: u32,
+) -> Option<(Vec3, Vec3)> {
     let cos = hit.ns.dot(ls.wi);
     if cos <= 0.0 || hit.ng.dot(ls.wi) <= 0.0 {
         return None;
@@ -766,7 +785,9 @@ pub(crate) fn integrands(brdf: &Brdf, hit: &Surface, wo: Vec3, ls: &LightSample)
     // kd/pi where the BRDF is defined: nothing where the shading normal faces away from the viewer.
     let diffuse = if hit.ns.dot(wo) > 0.0 { brdf.kd * (1.0 / std::f32::consts::PI) } else { Vec3::ZERO };
     let u = diffuse * ls.weight * cos;
-    let g = brdf.eval_specular(wo, ls.wi, hit.ns) * ls.weight * cos;
+    let (f_s, p_lobe) = brdf.specular_and_pdf(wo, ls.wi, hit.ns);
+    let w = if lobe_strategy { light_weight(ls, p_lobe, n_light) } else { 1.0 };
+    let g = f_s * ls.weight * (cos * w);
     (u.is_finite() && g.is_finite() && (u != Vec3::ZERO || g != Vec3::ZERO)).then_some((u, g))
 }
 

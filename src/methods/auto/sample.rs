@@ -7,6 +7,7 @@ use crate::render::frame_basis::{cosine_hemisphere, to_world};
 use crate::render::integrator::{emitted, light_radiance, LightDims};
 use crate::render::light::Light;
 use crate::render::material::Material;
+use crate::render::mis::lobe_term;
 use crate::render::sampler::PixelSampler;
 use crate::render::scene::{Scene, Surface};
 use glam::Vec3;
@@ -242,7 +243,7 @@ impl Sampling<'_> {
         let mut shadowed_r = Vec3::ZERO;
         // Every light draws its dimension pair, used or not, so that the streams stay aligned.
         for (light, slot) in scene.lights.iter().zip(self.slot) {
-            let dims = LightDims::draw(light, &mut sampler);
+            let dims = LightDims::draw(light, scene.glossy, &mut sampler);
             let u = dims.light;
             let mut r_here = Vec3::ZERO;
             if let (Light::Rect(rect), Some(l)) = (light, slot) {
@@ -270,7 +271,8 @@ impl Sampling<'_> {
                     let share = 1.0 / k as f32;
                     for ray in 0..k {
                         let Some(ls) = rect.sample(hit.p, lattice_shift(u, ray, k)) else { continue };
-                        let Some((u, g)) = integrands(&brdf, &hit, wo, &ls) else { continue };
+                        // The glossy part is weighed against the lobe sample below (`mis`).
+                        let Some((u, g)) = integrands(&brdf, &hit, wo, &ls, dims.lobe.is_some(), k) else { continue };
                         let (u, g) = (u * share, g * share);
                         rays += 1;
                         let visible = s.occ.visible(scene, &hit, ls.point, analysis && ray == 0);
@@ -284,6 +286,12 @@ impl Sampling<'_> {
                             rest += g;
                             diffuse_direct += u;
                             shadowed_r += r_here * share;
+                        }
+                    }
+                    if let Some((g, point)) = dims.lobe.and_then(|ul| lobe_term(&hit, wo, &brdf, rect, ul, k)) {
+                        rays += 1;
+                        if !scene.occluded(&hit, point) {
+                            rest += g;
                         }
                     }
                 }

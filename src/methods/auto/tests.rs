@@ -84,6 +84,22 @@ fn the_stream_keeps_the_energy_narrows_and_converges() {
     }
 }
 
+/// `glossy-plates`: plates from Blinn-Phong 10 to 10,000 reflecting an area light, whose glossy
+/// direct light `auto` leaves unfiltered and estimates with two strategies (`mis`). Its mean
+/// stays plain path tracing's, and its error falls pass by pass like the filtered parts'.
+#[test]
+fn glossy_reflections_of_an_area_light_keep_the_energy_and_converge() {
+    let s = builtin("glossy-plates", 32, 24);
+    let reference = reference(s.clone(), 0, 4096.0);
+    let f = all_frames(&job(s, Method::Auto, 5, 1, 0));
+    let last = f.last().unwrap();
+    let (m, r) = (mean(&last.color), mean(&reference.color));
+    assert!((m / r - 1.0).abs() < 0.02, "mean {m} vs {r}");
+    let e: Vec<f64> = f.iter().map(|fr| rmse_off_lights(&fr.color, &reference)).collect();
+    assert!(e.windows(2).all(|p| p[1] < 1.05 * p[0]), "{e:?}");
+    assert!(e[4] < 0.25 * e[0], "{e:?}");
+}
+
 /// RMSE without the pixels that see a light's surface (whose error is the camera jitter's
 /// coverage of its edge, which no filter touches): those above 1 in the reference and their
 /// 8 neighbours.

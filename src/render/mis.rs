@@ -1,0 +1,80 @@
+//! Multiple importance sampling (Veach 1997, Ch. 9): the power heuristic, and the direct light of
+//! a rectangular light by two strategies.
+//!
+//! A rect light's direct light is estimated by light sampling (`RectLight::sample`), which suits
+//! a diffuse surface. A glossy lobe narrower than the light as seen from the surface (a
+//! near-mirror reflecting a light) is another matter: light samples rarely fall inside the lobe,
+//! and those that do carry huge weights, so the pixel stays noisy for thousands of samples. The
+//! glossy part of the BRDF (ks times the lobe) therefore has a second strategy: a direction drawn
+//! from the lobe (`Brdf::sample_lobe`) that finds the light by a ray-rectangle test
+//! (`RectLight::hit`) and is then shadow-tested (`integrator::rect_direct`). The power heuristic combines the two, so each
+//! direction is counted mostly by the strategy that draws it more densely.
+//!
+//! The diffuse part keeps light sampling alone, with weight 1: the weights of each integrand sum
+//! to one over its own strategies, and the diffuse integrand has one. Light sampling is the
+//! better strategy for a cosine lobe under a light, and the AAF filters are defined on its
+//! samples (Mehta et al. 2012, Eq. 10).
+//!
+//! Only scenes with a glossy material draw the lobe sample's numbers (`Scene::glossy`), so a
+//! diffuse scene keeps its sample streams, its images and its speed.
+use super::light::{LightSample, RectLight};
+use super::material::Brdf;
+use super::scene::Surface;
+use glam::Vec3;
+
+/// The power heuristic (beta = 2, Veach 1997 Sec. 9.2.4) for a sample drawn with density `a`
+/// that the other strategy would draw with density `b` (each already multiplied by its
+/// strategy's sample count), in a ratio form that neither overflows nor divides 0 by 0
+/// (a > 0 for any drawn sample; an infinite `b` gives 0, an infinite `a` 1).
+#[inline]
+pub fn power_heuristic(a: f32, b: f32) -> f32 {
+    if !(a > 0.0) {
+        return 0.0;
+    }
+    let r = b / a;
+    if r.is_nan() {
+        // Both infinite: neither strategy is preferred.
+        return 0.5;
+    }
+    1.0 / (1.0 + r * r)
+}
+
+/// The weight of a light sample's glossy part at `s` towards `wo` when `n_light` light samples
+/// and one lobe sample estimate it (Veach's multi-sample power heuristic, counts included).
+/// `p_lobe` is the lobe strategy's density of the light sample's direction
+/// (`Brdf::specular_and_pdf`).
+#[inline]
+pub fn light_weight(ls: &LightSample, p_lobe: f32, n_light: u32) -> f32 {
+    power_heuristic(n_light as f32 * ls.pdf, p_lobe)
+}
+
+/// The lobe strategy's term for `rect` at `s` towards `wo` with the pair `u`, before
+/// visibility: ks lobe Le cos / p, weighted against `n_light` light samples, and the light point
+/// its direction reaches (for the shadow ray). None where the direction misses the light, leaves
+/// below the surface, or carries nothing.
+#[inline]
+pub fn lobe_term(
+    s: &Surface,
+    wo: Vec3,
+    brdf: &Brdf,
+    rect: &RectLight,
+    u: [f32; 2],
+    n_light: u32,
+) -> Option<(Vec3, Vec3)> {
+    // Most directions miss the light: the lobe is evaluated only for those that meet it.
+    let wi = brdf.sample_lobe_direction(wo, s.ns, u)?;
+    if s.ng.dot(wi) <= 0.0 {
+        return None;
+    }
+    let hit = rect.hit(s.p, wi)?;
+    let (f, pdf) = brdf.specular_and_pdf(wo, wi, s.ns);
+    if !(pdf > 0.0) {
+        return None;
+    }
+    let w = power_heuristic(pdf, n_light as f32 * hit.pdf);
+    let value = f * hit.radiance * (s.ns.dot(wi) * w / pdf);
+    (value != Vec3::ZERO && value.is_finite()).then_some((value, hit.point))
+}
+
+#[cfg(test)]
+mod tests;
