@@ -363,6 +363,7 @@ mod tests {
     use crate::render::environment::EnvironmentRadiance;
     use crate::render::light::{polygon_irradiance, EmissionProfile, PointLight, RectLight};
     use crate::render::scene::{CameraDesc, SceneBuilder};
+    use crate::render::test_rng::mean_se;
     use crate::render::texture::Texture;
 
     /// A white Lambertian floor (albedo a) under a square light; the camera looks straight
@@ -576,19 +577,6 @@ mod tests {
 
     fn constant_sky(l: f32) -> EnvironmentLight {
         EnvironmentLight::new(EnvironmentRadiance::Constant(Vec3::splat(l)), 1.0, Vec3::Y, 0.0)
-    }
-
-    /// Mean and standard error of `f(i)` over `n` samples.
-    fn mean_se(n: u32, mut f: impl FnMut(u32) -> f64) -> (f64, f64) {
-        let (mut sum, mut sum2) = (0.0, 0.0);
-        for i in 0..n {
-            let v = f(i);
-            assert!(v.is_finite() && v >= 0.0, "sample {i}: {v}");
-            sum += v;
-            sum2 += v * v;
-        }
-        let mean = sum / n as f64;
-        (mean, ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt())
     }
 
     #[test]

@@ -4,6 +4,7 @@ use crate::render::light::{EmissionProfile, Light};
 use crate::render::material::{GlossyModel, Material};
 use crate::render::sampler::PixelSampler;
 use crate::render::scene::{CameraDesc, Scene, SceneBuilder};
+use crate::render::test_rng::mean_se;
 use crate::render::texture::Texture;
 
 #[test]
@@ -125,19 +126,6 @@ fn glossy(kd: f32, ks: f32, exponent: f32, model: GlossyModel) -> Material {
         exponent: Texture::Constant(exponent),
         model,
     }
-}
-
-/// Mean and standard error of `f(i)` over `n` samples, each finite and non-negative.
-fn mean_se(n: u32, mut f: impl FnMut(u32) -> f64) -> (f64, f64) {
-    let (mut sum, mut sum2) = (0.0, 0.0);
-    for i in 0..n {
-        let v = f(i);
-        assert!(v.is_finite() && v >= 0.0, "sample {i}: {v}");
-        sum += v;
-        sum2 += v * v;
-    }
-    let mean = sum / n as f64;
-    (mean, ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt())
 }
 
 /// The three estimators of the light's direct light on the floor point of `mirror_scene`:
