@@ -9,7 +9,7 @@ use super::environment::EnvironmentLight;
 use super::frame_basis::{cosine_hemisphere, to_world};
 use super::light::{Light, LightSample, RectLight};
 use super::material::{Brdf, Material};
-use super::mis::{lobe_term, power_heuristic};
+use super::mis::{light_terms, power_heuristic, shadowed_lobe_term};
 use super::sampler::PixelSampler;
 use super::scene::{Scene, Surface};
 use glam::Vec3;
@@ -131,24 +131,12 @@ pub fn rect_direct(
             None => (Vec3::ZERO, 0),
         };
     };
-    let (mut sum, mut rays) = (Vec3::ZERO, 0);
-    if let Some(ls) = rect.sample(s.p, u_light) {
-        let cos = s.ns.dot(ls.wi);
-        if cos > 0.0 && s.ng.dot(ls.wi) > 0.0 && s.ns.dot(wo) > 0.0 {
-            let (f_s, p_lobe) = brdf.specular_and_pdf(wo, ls.wi, s.ns);
-            let f = brdf.kd * (1.0 / std::f32::consts::PI) + f_s * power_heuristic(ls.pdf, p_lobe);
-            if f != Vec3::ZERO {
-                rays += 1;
-                if !scene.occluded(s, ls.point) {
-                    sum += f * ls.weight * cos;
-                }
-            }
-        }
-    }
-    if let Some((value, point)) = lobe_term(s, wo, brdf, rect, u_lobe, 1) {
+    let (mut sum, mut rays) = shadowed_lobe_term(scene, s, wo, brdf, rect, u_lobe, 1);
+    let Some(ls) = rect.sample(s.p, u_light) else { return (sum, rays) };
+    if let Some((u, g)) = light_terms(brdf, s, wo, &ls, true, 1) {
         rays += 1;
-        if !scene.occluded(s, point) {
-            sum += value;
+        if !scene.occluded(s, ls.point) {
+            sum += u + g;
         }
     }
     (sum, rays)

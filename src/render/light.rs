@@ -378,8 +378,8 @@ impl RectLight {
         let y = x + t * w;
         // The edge parameters of y: its offset against the dual basis of the two edges.
         let d = y - self.corner;
-        let c = self.edge_u.cross(self.edge_v);
-        let inv = 1.0 / c.length_squared();
+        let c = self.normal * self.area;
+        let inv = 1.0 / (self.area * self.area);
         let a = d.cross(self.edge_v).dot(c) * inv;
         let b = self.edge_u.cross(d).dot(c) * inv;
         if !((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)) {
@@ -1054,6 +1054,19 @@ mod tests {
                 assert!((a as f64 - (x0 as f64 + t * (x1 - x0) as f64)).abs() < 1e-6, "{u} -> {a}");
                 assert!((reciprocal - (x1 - x0) * n as f32).abs() <= 1e-5 * reciprocal, "{u}: {reciprocal}");
             }
+            // A point found by a ray gets the density of the segment `place` drew it from: at
+            // every segment's middle and at its ends, tails included.
+            for j in 0..n {
+                let (x0, x1) = (e.inverse[j], e.inverse[j + 1]);
+                let (mid, reciprocal) = e.place((j as f32 + 0.5) / n as f32);
+                assert_eq!(e.reciprocal_density(mid), reciprocal, "len {len} sigma {sigma}: segment {j}");
+                assert_eq!(e.reciprocal_density(x0), reciprocal, "len {len} sigma {sigma}: segment {j} start");
+                if j + 1 < n {
+                    let next = (e.inverse[j + 2] - x1) * n as f32;
+                    assert_eq!(e.reciprocal_density(x1), next, "len {len} sigma {sigma}: segment {j} end");
+                }
+            }
+            assert_eq!(e.reciprocal_density(1.0), (e.inverse[n] - e.inverse[n - 1]) * n as f32);
         }
     }
 

@@ -43,6 +43,15 @@ impl Material {
         }
     }
 
+    /// Whether the material has a glossy lobe somewhere: a `Glossy` whose specular colour is not
+    /// black everywhere.
+    pub fn has_lobe(&self) -> bool {
+        match self {
+            Material::Glossy { specular, .. } => specular.values().iter().any(|v| *v != Vec3::ZERO),
+            _ => false,
+        }
+    }
+
     /// The BRDF at surface coordinates `uv`.
     pub fn brdf(&self, uv: Vec2) -> Brdf {
         match self {
@@ -220,16 +229,9 @@ impl Brdf {
     }
 
     /// Samples wi from the glossy lobe alone, for a strategy that estimates the glossy part on
-    /// its own (`mis::lobe_term`): wi, the glossy part of f (ks times the lobe) and the density
-    /// `specular_and_pdf` gives. None below the surface or where the lobe is empty.
-    pub fn sample_lobe(&self, wo: Vec3, n: Vec3, u: [f32; 2]) -> Option<BrdfSample> {
-        let wi = self.sample_lobe_direction(wo, n, u)?;
-        let (f, pdf) = self.specular_and_pdf(wo, wi, n);
-        (pdf > 0.0 && pdf.is_finite()).then_some(BrdfSample { wi, f, pdf })
-    }
-
-    /// The direction alone of `sample_lobe` (None below the surface or without a lobe): a
-    /// caller that keeps only some directions evaluates the lobe for those.
+    /// its own (`mis::lobe_term`): the direction only (None below the surface or without a
+    /// lobe), since a caller that keeps only some directions evaluates the lobe for those
+    /// (`specular_and_pdf`).
     #[inline]
     pub fn sample_lobe_direction(&self, wo: Vec3, n: Vec3, u: [f32; 2]) -> Option<Vec3> {
         if self.ks == Vec3::ZERO || n.dot(wo) <= 0.0 {
@@ -240,7 +242,7 @@ impl Brdf {
     }
 
     /// The glossy part of f(wo, wi) (ks times the lobe) and the density with which
-    /// `sample_lobe` draws wi; zeros below the surface or without a lobe.
+    /// `sample_lobe_direction` draws wi; zeros below the surface or without a lobe.
     #[inline]
     pub fn specular_and_pdf(&self, wo: Vec3, wi: Vec3, n: Vec3) -> (Vec3, f32) {
         if self.ks == Vec3::ZERO || n.dot(wi) <= 0.0 || n.dot(wo) <= 0.0 {

@@ -6,20 +6,22 @@
 //! near-mirror reflecting a light) is another matter: light samples rarely fall inside the lobe,
 //! and those that do carry huge weights, so the pixel stays noisy for thousands of samples. The
 //! glossy part of the BRDF (ks times the lobe) therefore has a second strategy: a direction drawn
-//! from the lobe (`Brdf::sample_lobe`) that finds the light by a ray-rectangle test
-//! (`RectLight::hit`) and is then shadow-tested (`integrator::rect_direct`). The power heuristic combines the two, so each
-//! direction is counted mostly by the strategy that draws it more densely.
+//! from the lobe (`Brdf::sample_lobe_direction`) that finds the light by a ray-rectangle test
+//! (`RectLight::hit`) and is then shadow-tested (`shadowed_lobe_term`). The power heuristic
+//! combines the two (`light_terms`, `lobe_term`), so each direction is counted mostly by the
+//! strategy that draws it more densely.
 //!
 //! The diffuse part keeps light sampling alone, with weight 1: the weights of each integrand sum
 //! to one over its own strategies, and the diffuse integrand has one. Light sampling is the
 //! better strategy for a cosine lobe under a light, and the AAF filters are defined on its
 //! samples (Mehta et al. 2012, Eq. 10).
 //!
-//! Only scenes with a glossy material draw the lobe sample's numbers (`Scene::glossy`), so a
-//! diffuse scene keeps its sample streams, its images and its speed.
+//! Only scenes with a glossy lobe draw the lobe sample's numbers (`Scene::glossy`), so a diffuse
+//! scene keeps its sample streams, its images and its speed. Where a camera sample draws several
+//! light samples (`auto`'s penumbrae) they share one lobe sample, and the weights count them.
 use super::light::{LightSample, RectLight};
 use super::material::Brdf;
-use super::scene::Surface;
+use super::scene::{Scene, Surface};
 use glam::Vec3;
 
 /// The power heuristic (beta = 2, Veach 1997 Sec. 9.2.4) for a sample drawn with density `a`
@@ -39,13 +41,39 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
     1.0 / (1.0 + r * r)
 }
 
-/// The weight of a light sample's glossy part at `s` towards `wo` when `n_light` light samples
-/// and one lobe sample estimate it (Veach's multi-sample power heuristic, counts included).
-/// `p_lobe` is the lobe strategy's density of the light sample's direction
-/// (`Brdf::specular_and_pdf`).
+/// The weight of a light sample's glossy part when `n_light` light samples and one lobe sample
+/// estimate it (Veach's multi-sample power heuristic, counts included); `p_lobe` is the lobe
+/// strategy's density of the light sample's direction (`Brdf::specular_and_pdf`).
 #[inline]
 pub fn light_weight(ls: &LightSample, p_lobe: f32, n_light: u32) -> f32 {
     power_heuristic(n_light as f32 * ls.pdf, p_lobe)
+}
+
+/// The diffuse integrand u = kd/pi Le G / pdf of light sample `ls` at `s` seen from `wo` (AAF's
+/// visibility weight, Mehta et al. 2012 Eq. 10) and its glossy one, before visibility. With
+/// `lobe_strategy` the glossy one is weighed against one lobe sample and `n_light` light
+/// samples; the diffuse one has light sampling alone. None where the sample is below the
+/// surface's horizon, carries nothing, or is not finite (then it needs no shadow ray).
+#[inline]
+pub fn light_terms(
+    brdf: &Brdf,
+    s: &Surface,
+    wo: Vec3,
+    ls: &LightSample,
+    lobe_strategy: bool,
+    n_light: u32,
+) -> Option<(Vec3, Vec3)> {
+    let cos = s.ns.dot(ls.wi);
+    if cos <= 0.0 || s.ng.dot(ls.wi) <= 0.0 {
+        return None;
+    }
+    // kd/pi where the BRDF is defined: nothing where the shading normal faces away from the viewer.
+    let diffuse = if s.ns.dot(wo) > 0.0 { brdf.kd * (1.0 / std::f32::consts::PI) } else { Vec3::ZERO };
+    let u = diffuse * ls.weight * cos;
+    let (f_s, p_lobe) = brdf.specular_and_pdf(wo, ls.wi, s.ns);
+    let w = if lobe_strategy { light_weight(ls, p_lobe, n_light) } else { 1.0 };
+    let g = f_s * ls.weight * (cos * w);
+    (u.is_finite() && g.is_finite() && (u != Vec3::ZERO || g != Vec3::ZERO)).then_some((u, g))
 }
 
 /// The lobe strategy's term for `rect` at `s` towards `wo` with the pair `u`, before
@@ -74,6 +102,24 @@ pub fn lobe_term(
     let w = power_heuristic(pdf, n_light as f32 * hit.pdf);
     let value = f * hit.radiance * (s.ns.dot(wi) * w / pdf);
     (value != Vec3::ZERO && value.is_finite()).then_some((value, hit.point))
+}
+
+/// `lobe_term` with its shadow ray: the light it adds (zero where occluded) and the rays traced.
+#[inline]
+pub fn shadowed_lobe_term(
+    scene: &Scene,
+    s: &Surface,
+    wo: Vec3,
+    brdf: &Brdf,
+    rect: &RectLight,
+    u: [f32; 2],
+    n_light: u32,
+) -> (Vec3, u32) {
+    match lobe_term(s, wo, brdf, rect, u, n_light) {
+        Some((value, point)) if !scene.occluded(s, point) => (value, 1),
+        Some(_) => (Vec3::ZERO, 1),
+        None => (Vec3::ZERO, 0),
+    }
 }
 
 #[cfg(test)]

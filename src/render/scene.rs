@@ -160,14 +160,15 @@ pub struct Scene {
     pub extent: Vec3,
     pub objects: u32,
     pub degenerate_triangles: usize,
-    /// Whether any material has a glossy lobe: then every rect light also draws a lobe-sampled
-    /// direction at each vertex (`mis`). Set from `materials` when the scene is built.
+    /// Whether any material has a glossy lobe (`Material::has_lobe`): then every rect light also
+    /// draws a lobe-sampled direction at each vertex (`mis`), and the indirect strategies have a
+    /// glossy part. Set from `materials` when the scene is built.
     pub glossy: bool,
 }
 
 /// Whether any of `materials` has a glossy lobe (`Scene::glossy`).
 fn any_glossy(materials: &[Material]) -> bool {
-    materials.iter().any(|m| matches!(m, Material::Glossy { .. }))
+    materials.iter().any(Material::has_lobe)
 }
 
 /// A shading point: a hit with its geometry resolved and normals facing the incoming ray.

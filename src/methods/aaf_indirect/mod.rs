@@ -201,10 +201,7 @@ impl IndirectStrategy {
 
     /// Whether some material of `scene` has a glossy lobe (else there is no glossy component).
     pub fn has_glossy(scene: &Scene) -> bool {
-        scene.materials.iter().any(|m| match m {
-            Material::Glossy { specular, .. } => specular.values().iter().any(|v| *v != Vec3::ZERO),
-            _ => false,
-        })
+        scene.glossy
     }
 
     fn parts(&self) -> &'static [Part] {

@@ -38,9 +38,9 @@ use crate::render::filter::{FilterKernel, FilterOptions, FilterSurface};
 use crate::render::gbuffer::GBuffer;
 use crate::render::huge_pages::filled;
 use crate::render::integrator::{emitted, radiance_from, DirectLights, PathResult};
-use crate::render::light::{EmissionProfile, Light, LightSample, RectLight};
-use crate::render::material::{Brdf, Material};
-use crate::render::mis::{light_weight, lobe_term};
+use crate::render::light::{EmissionProfile, Light, RectLight};
+use crate::render::material::Material;
+use crate::render::mis::{light_terms, shadowed_lobe_term};
 use crate::render::sampler::PixelSampler;
 use crate::render::scene::Scene;
 use crate::render::scene::Surface;
@@ -727,16 +727,15 @@ fn sample_pixel(
                 s.r2 += channel_mean(r.to_array()).powi(2);
             }
         }
-        if let Some((g, point)) = lobe_u.and_then(|ul| lobe_term(&hit, wo, &brdf, rect, ul, 1)) {
-            rays += 1;
-            if !scene.occluded(&hit, point) {
-                for c in 0..3 {
-                    s.spec[c] += g[c] as f64;
-                }
+        if let Some(ul) = lobe_u {
+            let (g, r) = shadowed_lobe_term(scene, &hit, wo, &brdf, rect, ul, 1);
+            rays += r as u64;
+            for c in 0..3 {
+                s.spec[c] += g[c] as f64;
             }
         }
         let Some(ls) = rect.sample(hit.p, light_u) else { continue };
-        let Some((u, g)) = integrands(&brdf, &hit, wo, &ls, lobe_u.is_some(), 1) else { continue };
+        let Some((u, g)) = light_terms(&brdf, &hit, wo, &ls, lobe_u.is_some(), 1) else { continue };
         rays += 1;
         let visible = s.occ.visible(scene, &hit, ls.point, record_slopes);
         for c in 0..3 {
@@ -764,31 +763,6 @@ fn sample_pixel(
     } else {
         (rays, 1)
     }
-}
-
-/// The diffuse integrand u = kd/pi Le G / pdf (the visibility's weight, Eq. 10) and the glossy
-/// one of light sample `ls` at `hit` seen from `wo`; None where the sample is below the surface's
-/// horizon, or carries nothing, or is not finite. With `lobe_strategy` (`mis`), the glossy one
-/// is weighed against a lobe sample and `n_light` light samples.
-pub(crate) fn integrands(
-    brdf: &Brdf,
-    hit: &Surface,
-    wo: Vec3,
-    ls: &LightSample,
-    lobe_strategy: bool,
-    n_light: u32,
-) -> Option<(Vec3, Vec3)> {
-    let cos = hit.ns.dot(ls.wi);
-    if cos <= 0.0 || hit.ng.dot(ls.wi) <= 0.0 {
-        return None;
-    }
-    // kd/pi where the BRDF is defined: nothing where the shading normal faces away from the viewer.
-    let diffuse = if hit.ns.dot(wo) > 0.0 { brdf.kd * (1.0 / std::f32::consts::PI) } else { Vec3::ZERO };
-    let u = diffuse * ls.weight * cos;
-    let (f_s, p_lobe) = brdf.specular_and_pdf(wo, ls.wi, hit.ns);
-    let w = if lobe_strategy { light_weight(ls, p_lobe, n_light) } else { 1.0 };
-    let g = f_s * ls.weight * (cos * w);
-    (u.is_finite() && g.is_finite() && (u != Vec3::ZERO || g != Vec3::ZERO)).then_some((u, g))
 }
 
 /// The extreme slopes of a pixel-light's occluded sparse shadow rays (s1 the largest, s2 the

@@ -1,13 +1,13 @@
 //! One camera sample of `auto`: one jittered camera path, split at its first hit into the parts
 //! the frame filters apart (methods.md §5.1).
 use crate::methods::aaf_indirect::{incident, ComponentSums};
-use crate::methods::aaf_shadows::{integrands, unshadowed, OccluderRange};
+use crate::methods::aaf_shadows::{unshadowed, OccluderRange};
 use crate::pipeline::job::RenderJob;
 use crate::render::frame_basis::{cosine_hemisphere, to_world};
 use crate::render::integrator::{emitted, light_radiance, LightDims};
 use crate::render::light::Light;
 use crate::render::material::Material;
-use crate::render::mis::lobe_term;
+use crate::render::mis::{light_terms, shadowed_lobe_term};
 use crate::render::sampler::PixelSampler;
 use crate::render::scene::{Scene, Surface};
 use glam::Vec3;
@@ -241,7 +241,8 @@ impl Sampling<'_> {
         let mut diffuse_direct = Vec3::ZERO;
         // The rect lights' diffuse light as r(x) times this sample's visibility (for `y`).
         let mut shadowed_r = Vec3::ZERO;
-        // Every light draws its dimension pair, used or not, so that the streams stay aligned.
+        // Every light draws its dimensions (`LightDims`), used or not, so that the streams stay
+        // aligned.
         for (light, slot) in scene.lights.iter().zip(self.slot) {
             let dims = LightDims::draw(light, scene.glossy, &mut sampler);
             let u = dims.light;
@@ -272,7 +273,7 @@ impl Sampling<'_> {
                     for ray in 0..k {
                         let Some(ls) = rect.sample(hit.p, lattice_shift(u, ray, k)) else { continue };
                         // The glossy part is weighed against the lobe sample below (`mis`).
-                        let Some((u, g)) = integrands(&brdf, &hit, wo, &ls, dims.lobe.is_some(), k) else { continue };
+                        let Some((u, g)) = light_terms(&brdf, &hit, wo, &ls, dims.lobe.is_some(), k) else { continue };
                         let (u, g) = (u * share, g * share);
                         rays += 1;
                         let visible = s.occ.visible(scene, &hit, ls.point, analysis && ray == 0);
@@ -288,11 +289,10 @@ impl Sampling<'_> {
                             shadowed_r += r_here * share;
                         }
                     }
-                    if let Some((g, point)) = dims.lobe.and_then(|ul| lobe_term(&hit, wo, &brdf, rect, ul, k)) {
-                        rays += 1;
-                        if !scene.occluded(&hit, point) {
-                            rest += g;
-                        }
+                    if let Some(ul) = dims.lobe {
+                        let (g, r) = shadowed_lobe_term(scene, &hit, wo, &brdf, rect, ul, k);
+                        rays += r as u64;
+                        rest += g;
                     }
                 }
                 (Light::Rect(_), None) => {}

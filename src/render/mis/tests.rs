@@ -146,12 +146,13 @@ fn three_estimates(material: Material, light: RectLight, blocker: bool, n: u32) 
     });
     let by_lobe = mean_se(n, |i| {
         let mut p = PixelSampler::new(23, 0, i);
-        let Some(b) = brdf.sample_lobe(wo, s.ns, p.next_2d()) else { return 0.0 };
-        let Some(h) = rect.hit(s.p, b.wi) else { return 0.0 };
+        let Some(wi) = brdf.sample_lobe_direction(wo, s.ns, p.next_2d()) else { return 0.0 };
+        let Some(h) = rect.hit(s.p, wi) else { return 0.0 };
         if scene.occluded(&s, h.point) {
             return 0.0;
         }
-        (b.f.x * h.radiance.x * s.ns.dot(b.wi) / b.pdf) as f64
+        let (f, pdf) = brdf.specular_and_pdf(wo, wi, s.ns);
+        (f.x * h.radiance.x * s.ns.dot(wi) / pdf) as f64
     });
     [combined, by_light, by_lobe]
 }
@@ -204,9 +205,44 @@ fn the_combination_is_unbiased_with_shadows_profiles_and_a_diffuse_part() {
 }
 
 #[test]
+fn several_light_samples_share_one_lobe_sample_without_bias() {
+    // `auto` draws k light samples in a penumbra, each weighing 1/k, and one lobe sample; the
+    // weights count k (Veach's multi-sample heuristic). The mean must stay light sampling's.
+    let (scene, s, wo) = mirror_scene(glossy(0.1, 0.6, 300.0, GlossyModel::BlinnPhong), light_over(0.5, None), true);
+    let Light::Rect(rect) = &scene.lights[0] else { unreachable!() };
+    let brdf = scene.materials[s.material as usize].brdf(s.uv);
+    let n = 16384;
+    let by_light = mean_se(n, |i| {
+        let mut p = PixelSampler::new(31, 0, i);
+        rect_direct(&scene, &s, wo, &brdf, rect, p.next_2d(), None).0.x as f64
+    });
+    for k in [2u32, 4, 16] {
+        let combined = mean_se(n, |i| {
+            let mut p = PixelSampler::new(32, 0, i);
+            let (ul, ub) = (p.next_2d(), p.next_2d());
+            let mut sum = shadowed_lobe_term(&scene, &s, wo, &brdf, rect, ub, k).0.x as f64;
+            for r in 0..k {
+                // Independent points on the light, one per light sample.
+                let u = PixelSampler::new(33 + r as u64, 0, i).next_2d();
+                let u = if r == 0 { ul } else { u };
+                let Some(ls) = rect.sample(s.p, u) else { continue };
+                let Some((d, g)) = light_terms(&brdf, &s, wo, &ls, true, k) else { continue };
+                if !scene.occluded(&s, ls.point) {
+                    sum += (d.x + g.x) as f64 / k as f64;
+                }
+            }
+            sum
+        });
+        assert!(agree(combined, by_light), "k {k}: {combined:?} vs {by_light:?}");
+    }
+}
+
+#[test]
 fn extreme_lobes_and_grazing_views_stay_finite() {
-    for exponent in [0.0, 1.0, 1e3, 1e6] {
-        let (scene, s, _) = mirror_scene(glossy(0.2, 0.7, exponent, GlossyModel::Phong), light_over(0.5, None), true);
+    for (exponent, model) in
+        [0.0, 1.0, 1e3, 1e6].into_iter().flat_map(|m| [(m, GlossyModel::Phong), (m, GlossyModel::BlinnPhong)])
+    {
+        let (scene, s, _) = mirror_scene(glossy(0.2, 0.7, exponent, model), light_over(0.5, None), true);
         let Light::Rect(rect) = &scene.lights[0] else { unreachable!() };
         let brdf = scene.materials[s.material as usize].brdf(s.uv);
         // Views from the mirror direction's exact opposite down to a grazing one.
@@ -215,7 +251,7 @@ fn extreme_lobes_and_grazing_views_stay_finite() {
                 let mut p = PixelSampler::new(5, 0, i);
                 let (ul, ub) = (p.next_2d(), p.next_2d());
                 let (l, rays) = rect_direct(&scene, &s, wo, &brdf, rect, ul, Some(ub));
-                assert!(l.is_finite() && l.min_element() >= 0.0, "m {exponent} wo {wo}: {l}");
+                assert!(l.is_finite() && l.min_element() >= 0.0, "{model:?} m {exponent} wo {wo}: {l}");
                 assert!(rays <= 2);
             }
         }
@@ -223,10 +259,22 @@ fn extreme_lobes_and_grazing_views_stay_finite() {
 }
 
 #[test]
-fn only_scenes_with_glossy_materials_draw_the_lobe_sample() {
+fn only_scenes_with_a_glossy_lobe_draw_the_lobe_sample() {
+    use crate::render::integrator::LightDims;
     let lambert = Material::Lambertian { albedo: Texture::Constant(Vec3::splat(0.5)) };
-    let (scene, _, _) = mirror_scene(lambert, light_over(0.5, None), false);
-    assert!(!scene.glossy);
-    let (scene, _, _) = mirror_scene(glossy(0.5, 0.0, 10.0, GlossyModel::Phong), light_over(0.5, None), false);
-    assert!(scene.glossy);
+    let black_lobe = glossy(0.5, 0.0, 10.0, GlossyModel::Phong);
+    for (material, lobe) in [(lambert, false), (black_lobe, false), (glossy(0.5, 0.2, 10.0, GlossyModel::Phong), true)] {
+        let (scene, _, _) = mirror_scene(material, light_over(0.5, None), false);
+        assert_eq!(scene.glossy, lobe);
+        // The rect light's numbers: a pair for the light, and a pair for the lobe only when the
+        // scene has one; the stream after them moves by exactly that.
+        let mut a = PixelSampler::new(1, 2, 3);
+        let dims = LightDims::draw(&scene.lights[0], scene.glossy, &mut a);
+        assert_eq!(dims.lobe.is_some(), lobe);
+        let mut b = PixelSampler::new(1, 2, 3);
+        for _ in 0..1 + u32::from(lobe) {
+            b.next_2d();
+        }
+        assert_eq!(a.next_2d(), b.next_2d());
+    }
 }
