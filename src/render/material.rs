@@ -229,7 +229,7 @@ impl Brdf {
     }
 
     /// Samples wi from the glossy lobe alone, for a strategy that estimates the glossy part on
-    /// its own (`mis::lobe_term`): the direction only (None below the surface or without a
+    /// its own (`mis::shadowed_lobe_term`): the direction only (None below the surface or without a
     /// lobe), since a caller that keeps only some directions evaluates the lobe for those
     /// (`specular_and_pdf`).
     #[inline]

@@ -8,7 +8,7 @@
 //! glossy part of the BRDF (ks times the lobe) therefore has a second strategy: a direction drawn
 //! from the lobe (`Brdf::sample_lobe_direction`) that finds the light by a ray-rectangle test
 //! (`RectLight::hit`) and is then shadow-tested (`shadowed_lobe_term`). The power heuristic
-//! combines the two (`light_terms`, `lobe_term`), so each direction is counted mostly by the
+//! combines the two (`light_terms`, `shadowed_lobe_term`), so each direction is counted mostly by the
 //! strategy that draws it more densely.
 //!
 //! The diffuse part keeps light sampling alone, with weight 1: the weights of each integrand sum
@@ -76,35 +76,10 @@ pub fn light_terms(
     (u.is_finite() && g.is_finite() && (u != Vec3::ZERO || g != Vec3::ZERO)).then_some((u, g))
 }
 
-/// The lobe strategy's term for `rect` at `s` towards `wo` with the pair `u`, before
-/// visibility: ks lobe Le cos / p, weighted against `n_light` light samples, and the light point
-/// its direction reaches (for the shadow ray). None where the direction misses the light, leaves
-/// below the surface, or carries nothing.
-#[inline]
-pub fn lobe_term(
-    s: &Surface,
-    wo: Vec3,
-    brdf: &Brdf,
-    rect: &RectLight,
-    u: [f32; 2],
-    n_light: u32,
-) -> Option<(Vec3, Vec3)> {
-    // Most directions miss the light: the lobe is evaluated only for those that meet it.
-    let wi = brdf.sample_lobe_direction(wo, s.ns, u)?;
-    if s.ng.dot(wi) <= 0.0 {
-        return None;
-    }
-    let hit = rect.hit(s.p, wi)?;
-    let (f, pdf) = brdf.specular_and_pdf(wo, wi, s.ns);
-    if !(pdf > 0.0) {
-        return None;
-    }
-    let w = power_heuristic(pdf, n_light as f32 * hit.pdf);
-    let value = f * hit.radiance * (s.ns.dot(wi) * w / pdf);
-    (value != Vec3::ZERO && value.is_finite()).then_some((value, hit.point))
-}
-
-/// `lobe_term` with its shadow ray: the light it adds (zero where occluded) and the rays traced.
+/// The lobe strategy's term for `rect` at `s` towards `wo` with the pair `u`: ks lobe Le cos / p,
+/// weighted against `n_light` light samples, zero where its direction misses the light, leaves
+/// below the surface or is occluded; and the shadow rays traced (1 where the direction meets the
+/// light).
 #[inline]
 pub fn shadowed_lobe_term(
     scene: &Scene,
@@ -115,10 +90,26 @@ pub fn shadowed_lobe_term(
     u: [f32; 2],
     n_light: u32,
 ) -> (Vec3, u32) {
-    match lobe_term(s, wo, brdf, rect, u, n_light) {
-        Some((value, point)) if !scene.occluded(s, point) => (value, 1),
-        Some(_) => (Vec3::ZERO, 1),
-        None => (Vec3::ZERO, 0),
+    const NOTHING: (Vec3, u32) = (Vec3::ZERO, 0);
+    // Most directions miss the light: the lobe is evaluated only for those that meet it.
+    let Some(wi) = brdf.sample_lobe_direction(wo, s.ns, u) else { return NOTHING };
+    if s.ng.dot(wi) <= 0.0 {
+        return NOTHING;
+    }
+    let Some(hit) = rect.hit(s.p, wi) else { return NOTHING };
+    let (f, pdf) = brdf.specular_and_pdf(wo, wi, s.ns);
+    if !(pdf > 0.0) {
+        return NOTHING;
+    }
+    let w = power_heuristic(pdf, n_light as f32 * hit.pdf);
+    let value = f * hit.radiance * (s.ns.dot(wi) * w / pdf);
+    if value == Vec3::ZERO || !value.is_finite() {
+        return NOTHING;
+    }
+    if scene.occluded(s, hit.point) {
+        (Vec3::ZERO, 1)
+    } else {
+        (value, 1)
     }
 }
 

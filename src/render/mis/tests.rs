@@ -263,7 +263,8 @@ fn only_scenes_with_a_glossy_lobe_draw_the_lobe_sample() {
     use crate::render::integrator::LightDims;
     let lambert = Material::Lambertian { albedo: Texture::Constant(Vec3::splat(0.5)) };
     let black_lobe = glossy(0.5, 0.0, 10.0, GlossyModel::Phong);
-    for (material, lobe) in [(lambert, false), (black_lobe, false), (glossy(0.5, 0.2, 10.0, GlossyModel::Phong), true)] {
+    for (material, lobe) in [(lambert, false), (black_lobe, false), (glossy(0.5, 0.2, 10.0, GlossyModel::Phong), true)]
+    {
         let (scene, _, _) = mirror_scene(material, light_over(0.5, None), false);
         assert_eq!(scene.glossy, lobe);
         // The rect light's numbers: a pair for the light, and a pair for the lobe only when the
