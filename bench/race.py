@@ -354,8 +354,13 @@ def f(x, spec=".4g"):
 
 
 def machine():
-    model = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo") if l.startswith("model name")), "?")
-    return f"nproc {subprocess.run(['nproc'], capture_output=True, text=True).stdout.strip()}, {model}"
+    lines = open("/proc/cpuinfo").read().splitlines()
+    model = next((l.split(":", 1)[1].strip() for l in lines if l.startswith("model name")), "?")
+    flags = next((l.split(":", 1)[1].split() for l in lines if l.startswith("flags")), [])
+    # The workplace's hosts share a model name with and without AVX-512 (Mitsuba's LLVM kernels
+    # use it, wedge's code does not), which moves every comparison with Mitsuba: name it.
+    simd = "AVX-512" if "avx512f" in flags else "no AVX-512"
+    return f"nproc {subprocess.run(['nproc'], capture_output=True, text=True).stdout.strip()}, {model} ({simd})"
 
 
 def oidn_version():
