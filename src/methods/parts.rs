@@ -43,7 +43,7 @@ pub fn component_names(job: &RenderJob, mode: FilterMode) -> Vec<&'static str> {
     }
     if indirect {
         names.push("diffuse");
-        if !ao && IndirectStrategy::has_glossy(&job.scene) {
+        if !ao && job.scene.glossy {
             names.push("glossy");
         }
     }

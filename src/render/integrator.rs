@@ -125,15 +125,10 @@ pub fn rect_direct(
     u_light: [f32; 2],
     u_lobe: Option<[f32; 2]>,
 ) -> (Vec3, u32) {
-    let Some(u_lobe) = u_lobe else {
-        return match rect.sample(s.p, u_light) {
-            Some(ls) => light_sample_radiance(scene, s, wo, brdf, &ls),
-            None => (Vec3::ZERO, 0),
-        };
-    };
-    let (mut sum, mut rays) = shadowed_lobe_term(scene, s, wo, brdf, rect, u_lobe, 1);
+    let lobe = u_lobe.map_or((Vec3::ZERO, 0), |u| shadowed_lobe_term(scene, s, wo, brdf, rect, u, 1));
+    let (mut sum, mut rays) = lobe;
     let Some(ls) = rect.sample(s.p, u_light) else { return (sum, rays) };
-    if let Some((u, g)) = light_terms(brdf, s, wo, &ls, true, 1) {
+    if let Some((u, g)) = light_terms(brdf, s, wo, &ls, u_lobe.is_some(), 1) {
         rays += 1;
         if !scene.occluded(s, ls.point) {
             sum += u + g;

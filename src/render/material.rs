@@ -177,14 +177,6 @@ impl Brdf {
         (f, pdf)
     }
 
-    /// The glossy part of f(wo, wi) alone (f minus kd/pi).
-    pub fn eval_specular(&self, wo: Vec3, wi: Vec3, n: Vec3) -> Vec3 {
-        if self.ks == Vec3::ZERO || n.dot(wi) <= 0.0 || n.dot(wo) <= 0.0 {
-            return Vec3::ZERO;
-        }
-        self.ks * self.lobe(wo, wi, n).0
-    }
-
     /// Density (solid angle) with which `sample` draws wi.
     pub fn pdf(&self, wo: Vec3, wi: Vec3, n: Vec3) -> f32 {
         let cos_i = n.dot(wi);
@@ -204,14 +196,8 @@ impl Brdf {
     /// lobe(wo, wi) cos(theta_i) / pdf(wi), without ks. None when the drawn direction is below
     /// the surface or the lobe is empty (then the sample contributes 0).
     pub fn sample_specular(&self, wo: Vec3, n: Vec3, u: [f32; 2]) -> Option<(Vec3, f32)> {
-        if self.ks == Vec3::ZERO || n.dot(wo) <= 0.0 {
-            return None;
-        }
-        let wi = self.lobe_direction(wo, n, u);
+        let wi = self.sample_lobe_direction(wo, n, u)?;
         let cos_i = n.dot(wi);
-        if cos_i <= 0.0 {
-            return None;
-        }
         let (f, pdf) = self.lobe(wo, wi, n);
         let w = f * cos_i / pdf;
         (pdf > 0.0 && w.is_finite()).then_some((wi, w))
@@ -354,7 +340,7 @@ mod tests {
     #[test]
     fn glossy_lobe_sampling_estimates_the_glossy_albedo() {
         // sum over lobe samples of lobe cos / pdf = int ks-free lobe cos: the quadrature of
-        // eval_specular / ks. Exponents up to 1e6 stay finite.
+        // the glossy part of f / ks. Exponents up to 1e6 stay finite.
         for model in [GlossyModel::Phong, GlossyModel::BlinnPhong] {
             for m in [0.0, 3.0, 20.0, 1e6] {
                 let b = glossy(model, m);
@@ -369,7 +355,8 @@ mod tests {
                 }
                 let sampled = sum / n as f64;
                 if m <= 20.0 {
-                    let q = hemisphere_integral(600, |wi| (b.eval_specular(wo, wi, Vec3::Z).x * wi.z) as f64) / 0.6;
+                    let q =
+                        hemisphere_integral(600, |wi| (b.specular_and_pdf(wo, wi, Vec3::Z).0.x * wi.z) as f64) / 0.6;
                     assert!((q - sampled).abs() < 0.01, "{model:?} m={m}: quadrature {q} sampled {sampled}");
                 } else {
                     assert!(sampled > 0.5 && sampled <= 1.0 + 1e-3, "{model:?} m={m}: {sampled}");

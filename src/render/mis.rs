@@ -41,18 +41,11 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
     1.0 / (1.0 + r * r)
 }
 
-/// The weight of a light sample's glossy part when `n_light` light samples and one lobe sample
-/// estimate it (Veach's multi-sample power heuristic, counts included); `p_lobe` is the lobe
-/// strategy's density of the light sample's direction (`Brdf::specular_and_pdf`).
-#[inline]
-pub fn light_weight(ls: &LightSample, p_lobe: f32, n_light: u32) -> f32 {
-    power_heuristic(n_light as f32 * ls.pdf, p_lobe)
-}
-
 /// The diffuse integrand u = kd/pi Le G / pdf of light sample `ls` at `s` seen from `wo` (AAF's
 /// visibility weight, Mehta et al. 2012 Eq. 10) and its glossy one, before visibility. With
 /// `lobe_strategy` the glossy one is weighed against one lobe sample and `n_light` light
-/// samples; the diffuse one has light sampling alone. None where the sample is below the
+/// samples (Veach's multi-sample power heuristic, counts included); the diffuse one has light
+/// sampling alone. None where the sample is below the
 /// surface's horizon, carries nothing, or is not finite (then it needs no shadow ray).
 #[inline]
 pub fn light_terms(
@@ -71,7 +64,7 @@ pub fn light_terms(
     let diffuse = if s.ns.dot(wo) > 0.0 { brdf.kd * (1.0 / std::f32::consts::PI) } else { Vec3::ZERO };
     let u = diffuse * ls.weight * cos;
     let (f_s, p_lobe) = brdf.specular_and_pdf(wo, ls.wi, s.ns);
-    let w = if lobe_strategy { light_weight(ls, p_lobe, n_light) } else { 1.0 };
+    let w = if lobe_strategy { power_heuristic(n_light as f32 * ls.pdf, p_lobe) } else { 1.0 };
     let g = f_s * ls.weight * (cos * w);
     (u.is_finite() && g.is_finite() && (u != Vec3::ZERO || g != Vec3::ZERO)).then_some((u, g))
 }

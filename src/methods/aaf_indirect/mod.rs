@@ -177,7 +177,7 @@ const STREAM: u64 = 0x696e_6469_7265_6374;
 impl IndirectStrategy {
     pub fn new(job: &RenderJob, mode: FilterMode, owns_direct: bool) -> Self {
         let ao = matches!(job.integrand, Integrand::AmbientOcclusion { .. });
-        let glossy = !ao && Self::has_glossy(&job.scene);
+        let glossy = !ao && job.scene.glossy;
         IndirectStrategy {
             mode,
             opts: job.indirect.clone(),
@@ -197,11 +197,6 @@ impl IndirectStrategy {
             dropped: 0,
             method_seconds: 0.0,
         }
-    }
-
-    /// Whether some material of `scene` has a glossy lobe (else there is no glossy component).
-    pub fn has_glossy(scene: &Scene) -> bool {
-        scene.glossy
     }
 
     fn parts(&self) -> &'static [Part] {

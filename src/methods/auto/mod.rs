@@ -45,7 +45,7 @@ mod widths;
 
 pub use options::AutoOptions;
 
-use super::aaf_indirect::{tokuyoshi, IndirectStrategy};
+use super::aaf_indirect::tokuyoshi;
 use super::aaf_shadows::{fill_slopes, ratio, shadow_light, FillGrid, ShadowLight, Slopes};
 use super::lobe_aware::filter::Guide;
 use super::lobe_aware::packed::{gather, gather_with_power, PackedGuide, PackedOptions};
@@ -101,7 +101,7 @@ pub fn component_names(job: &RenderJob) -> Vec<&'static str> {
     }
     if job.bounces > 0 {
         names.push("diffuse");
-        if IndirectStrategy::has_glossy(&job.scene) {
+        if job.scene.glossy {
             names.push("glossy");
         }
     }
@@ -155,7 +155,7 @@ impl AutoStrategy {
             height: job.height() as usize,
             lights,
             slot,
-            glossy: job.bounces > 0 && IndirectStrategy::has_glossy(&job.scene),
+            glossy: job.bounces > 0 && job.scene.glossy,
             seed: hash_words(&[job.seed, STREAM]),
             sums: Vec::new(),
             light_sums: Vec::new(),
