@@ -3,7 +3,7 @@
 //! the render when its caller goes away. `wedge render` runs `run` on its own thread; the
 //! `Render` handler (and later sessions) run it through `spawn`. Knows nothing of gRPC: the
 //! sink decides what a frame becomes (files, wire chunks).
-use crate::pipeline::frame::{Frame, HaltReason};
+use crate::pipeline::frame::{Frame, FrameStats, HaltReason};
 use crate::pipeline::job::{CancelToken, RenderError, RenderJob};
 use crate::pipeline::progressive;
 use std::future::Future;
@@ -52,21 +52,34 @@ pub enum RunError<E> {
 }
 
 /// Renders `job` on this thread, handing every `frame_every`-th frame (and always the final
-/// one) to `sink`. A sink error stops the render at once and is returned.
+/// one) to `sink`; `frame_every` 0 hands the final frame alone. Frames not handed on are not
+/// composed (`progressive::render_frames`). A sink error stops the render at once and is
+/// returned.
 pub fn run<E>(
     job: &RenderJob,
     cancel: &CancelToken,
     frame_every: u32,
     sink: &mut dyn FnMut(&Frame) -> Result<(), E>,
 ) -> Result<RunSummary, RunError<E>> {
-    let frame_every = frame_every.max(1);
+    run_with_progress(job, cancel, frame_every, &mut |_| {}, sink)
+}
+
+/// `run`, also calling `progress` after every pass, composed or not (a progress bar).
+pub fn run_with_progress<E>(
+    job: &RenderJob,
+    cancel: &CancelToken,
+    frame_every: u32,
+    progress: &mut dyn FnMut(&FrameStats),
+    sink: &mut dyn FnMut(&Frame) -> Result<(), E>,
+) -> Result<RunSummary, RunError<E>> {
     let mut frames_sent = 0u32;
     let mut failure = None;
-    let result = progressive::render(job, cancel, &mut |frame| {
-        let s = &frame.stats;
-        if !s.is_final && !(s.pass + 1).is_multiple_of(frame_every) {
+    let wanted = |pass: u32| frame_every > 0 && (pass + 1).is_multiple_of(frame_every);
+    let result = progressive::render_frames(job, cancel, &wanted, &mut |stats, frame| {
+        progress(stats);
+        let Some(frame) = frame.filter(|_| stats.is_final || wanted(stats.pass)) else {
             return true;
-        }
+        };
         match sink(frame) {
             Ok(()) => {
                 frames_sent += 1;
@@ -141,6 +154,15 @@ mod tests {
         .unwrap();
         assert_eq!(passes, [1, 3, 4]);
         assert_eq!((r.passes, r.frames_sent, r.halt), (5, 3, HaltReason::MaxPasses));
+        // 0: the final frame alone; progress hears of every pass.
+        let (mut passes, mut progress) = (Vec::new(), Vec::new());
+        let r = run_with_progress::<()>(&job(5), &CancelToken::new(), 0, &mut |s| progress.push(s.pass), &mut |f| {
+            passes.push(f.stats.pass);
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!((passes, progress), (vec![4], vec![0, 1, 2, 3, 4]));
+        assert_eq!((r.passes, r.frames_sent), (5, 1));
     }
 
     #[test]

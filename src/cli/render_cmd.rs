@@ -33,12 +33,19 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     bar.set_message(format!("{}x{} {}", job.width(), job.height(), job.method.name()));
     let writer = FrameWriter::new(&args);
-    // Every frame goes to the writer (it keeps the final one and every `--every`-th).
-    let result = runner::run(job, &CancelToken::new(), 1, &mut |frame| {
-        bar.set_position(frame.stats.pass as u64 + 1);
-        bar.set_message(format!("{:.1} spp, {:.2} s", frame.stats.mean_spp, frame.stats.elapsed_seconds));
-        writer.frame(frame, &prepared.info)
-    });
+    // The writer gets the frames `--every` asks for and the final one; the others are not
+    // composed (a filter nobody sees would spend the time budget).
+    let every = args.every.unwrap_or(0);
+    let result = runner::run_with_progress(
+        job,
+        &CancelToken::new(),
+        every,
+        &mut |stats| {
+            bar.set_position(stats.pass as u64 + 1);
+            bar.set_message(format!("{:.1} spp, {:.2} s", stats.mean_spp, stats.elapsed_seconds));
+        },
+        &mut |frame| writer.frame(frame, &prepared.info),
+    );
     bar.finish_and_clear();
     match result {
         Ok(_) => Ok(()),

@@ -4,7 +4,7 @@
 use crate::pipeline::film::Film;
 use crate::pipeline::frame::{Frame, FrameStats};
 use crate::pipeline::job::{RenderError, RenderJob};
-use crate::pipeline::strategy::{PassContext, PassOutput, Strategy};
+use crate::pipeline::strategy::{PassContext, Sampled, Strategy};
 
 pub struct Uniform {
     film: Film,
@@ -29,14 +29,23 @@ impl Uniform {
 }
 
 impl Strategy for Uniform {
-    fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError> {
+    fn sample(&mut self, ctx: &PassContext) -> Result<Sampled, RenderError> {
         let job = ctx.job;
         let k = Self::pass_spp(job.initial_spp, ctx.pass, self.spp, job.halt.max_mean_spp);
         let tally = self.film.add_samples(ctx.scene, job, &|_| k, ctx.stop)?;
         self.spp += k as u64;
         self.rays += tally.rays;
         self.dropped += tally.dropped;
-        let frame = Frame {
+        Ok(Sampled {
+            complete: tally.complete,
+            mean_spp: self.film.mean_taken(),
+            rays_traced: self.rays,
+            dropped_samples: self.dropped,
+        })
+    }
+
+    fn frame(&mut self, _ctx: &PassContext) -> Frame {
+        Frame {
             shading: None,
             width: self.film.width,
             height: self.film.height,
@@ -54,8 +63,7 @@ impl Strategy for Uniform {
                 dropped_samples: self.dropped,
                 ..FrameStats::default()
             },
-        };
-        Ok(PassOutput { frame, complete: tally.complete })
+        }
     }
 }
 

@@ -5,13 +5,14 @@
 //! whose registry row asks for it, its rays counted once), the rule that pass 0 always
 //! completes (only a cancellation stops it; every method makes it cheap), the deadline of
 //! later passes (a cut pass still ends in a valid estimate of every pixel), and the render's
-//! own error estimate behind the noise-target halt (`noise`), and the denoiser inputs (AOVs)
-//! when the job asks for them.
+//! own error estimate behind the noise-target halt (`noise`), the denoiser inputs (AOVs)
+//! when the job asks for them, and which passes' frames are composed at all (a frame nobody
+//! uses is not filtered: `render_frames`).
 use super::frame::{Frame, FrameStats, HaltReason};
 use super::job::{CancelToken, RenderError, RenderJob, StopCheck};
 use super::noise::ErrorEstimate;
 use super::registry::make_strategy;
-use super::strategy::{PassContext, PassOutput};
+use super::strategy::{PassContext, Sampled};
 use crate::render::aovs::Aovs;
 use crate::render::gbuffer::GBuffer;
 use std::sync::Arc;
@@ -24,6 +25,19 @@ pub fn render(
     job: &RenderJob,
     cancel: &CancelToken,
     on_frame: &mut dyn FnMut(&Frame) -> bool,
+) -> Result<FrameStats, RenderError> {
+    render_frames(job, cancel, &|_| true, &mut |_, frame| frame.is_none_or(&mut *on_frame))
+}
+
+/// Runs `job` to a halt condition, composing the frames of the passes `wanted` names (by pass
+/// index), the final frame, and, under a noise target, every frame (the halt compares them).
+/// `on_pass` gets every pass's stats and its frame when composed; returning false stops the
+/// render like a cancellation. The final frame does not depend on which frames were composed.
+pub fn render_frames(
+    job: &RenderJob,
+    cancel: &CancelToken,
+    wanted: &dyn Fn(u32) -> bool,
+    on_pass: &mut dyn FnMut(&FrameStats, Option<&Frame>) -> bool,
 ) -> Result<FrameStats, RenderError> {
     let start = Instant::now();
     let halt = &job.halt;
@@ -60,36 +74,60 @@ pub fn render(
         }
         let stop = StopCheck::for_pass(cancel, pass, deadline);
         let ctx = PassContext { scene: &job.scene, job, view: &job.view, pass, stop: &stop, gbuffer: gbuffer.as_ref() };
-        let PassOutput { mut frame, complete } = strategy.run_pass(&ctx)?;
-        let elapsed = start.elapsed();
-        tracing::debug!(pass, complete, seconds = elapsed.as_secs_f64(), "pass done");
-        frame.stats.rays_traced += gbuffer_rays + aov_rays;
-        frame.aovs.clone_from(&aovs);
-        // A pass the deadline cut left most pixels as they were: the change since the previous
-        // frame says little about the error, so a cut frame claims no estimate.
-        let estimate = error.update(&frame).filter(|_| complete);
-        let reason = if halt.max_mean_spp > 0.0 && frame.stats.mean_spp >= halt.max_mean_spp {
+        let sampled = strategy.sample(&ctx)?;
+        let Sampled { complete, mean_spp, .. } = sampled;
+        tracing::debug!(pass, complete, seconds = start.elapsed().as_secs_f64(), "pass sampled");
+        // The halts that need no frame, in the order they are reported.
+        let limit = if halt.max_mean_spp > 0.0 && mean_spp >= halt.max_mean_spp {
             HaltReason::MaxSpp
         } else if pass + 1 >= halt.max_passes.max(1) {
             HaltReason::MaxPasses
+        } else {
+            HaltReason::None
+        };
+        let out_of_time = !complete || deadline.is_some_and(|d| Instant::now() >= d);
+        let compose = halt.target_error.is_some() || limit != HaltReason::None || out_of_time || wanted(pass);
+        let mut frame = compose.then(|| strategy.frame(&ctx));
+        // A pass the deadline cut left most pixels as they were: the change since the previous
+        // frame says little about the error, so a cut frame claims no estimate.
+        let estimate = frame.as_ref().and_then(|f| error.update(f)).filter(|_| complete);
+        let reason = if limit != HaltReason::None {
+            limit
         } else if halt.target_error.zip(estimate).is_some_and(|(target, e)| e <= target) {
             HaltReason::NoiseTarget
-        } else if !complete || deadline.is_some_and(|d| Instant::now() >= d) {
+        } else if out_of_time {
             HaltReason::TimeBudget
         } else {
             HaltReason::None
         };
-        frame.stats.pass = pass;
-        frame.stats.pass_complete = complete;
-        frame.stats.estimated_error = estimate;
-        frame.stats.elapsed_seconds = elapsed.as_secs_f64();
-        frame.stats.is_final = reason != HaltReason::None;
-        frame.stats.halt_reason = reason;
-        if !on_frame(&frame) {
+        let elapsed = start.elapsed();
+        tracing::debug!(pass, composed = compose, seconds = elapsed.as_secs_f64(), "pass done");
+        let stats = FrameStats {
+            pass,
+            mean_spp,
+            rays_traced: sampled.rays_traced + gbuffer_rays + aov_rays,
+            dropped_samples: sampled.dropped_samples,
+            elapsed_seconds: elapsed.as_secs_f64(),
+            is_final: reason != HaltReason::None,
+            halt_reason: reason,
+            pass_complete: complete,
+            estimated_error: estimate,
+            ..frame.as_ref().map(|f| f.stats.clone()).unwrap_or_default()
+        };
+        if let Some(f) = frame.as_mut() {
+            debug_assert!(
+                (f.stats.mean_spp - mean_spp).abs() <= 1e-9 * mean_spp.max(1.0),
+                "the frame's mean spp {} differs from the sampling's {mean_spp}",
+                f.stats.mean_spp
+            );
+            f.stats = stats.clone();
+            f.aovs.clone_from(&aovs);
+        }
+        if !on_pass(&stats, frame.as_ref()) {
             return Err(RenderError::Cancelled);
         }
-        if frame.stats.is_final {
-            return Ok(frame.stats);
+        if stats.is_final {
+            return Ok(stats);
         }
     }
     unreachable!("the pass loop only ends by returning")

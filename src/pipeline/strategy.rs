@@ -26,17 +26,32 @@ impl PassContext<'_> {
     }
 }
 
-/// A pass's outcome: its frame (stats: mean spp, rays, dropped samples, method seconds filled
-/// in; the progressive loop fills in the rest) and whether every pixel got the pass's samples
-/// (false when the deadline cut the pass; every pixel still holds a valid estimate).
-pub struct PassOutput {
-    pub frame: Frame,
+/// What a pass's sampling did: whether every pixel got the pass's samples (false when the
+/// deadline cut the pass; every pixel still holds a valid estimate), the samples per pixel so
+/// far (the mean of the frame's spp map: the spp halt reads it before any frame is composed),
+/// and the rays traced and non-finite samples dropped so far.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sampled {
     pub complete: bool,
+    pub mean_spp: f64,
+    pub rays_traced: u64,
+    pub dropped_samples: u64,
 }
 
+/// A method's progressive render, pass by pass. The loop calls `sample` once per pass and
+/// `frame` only for the passes whose frame someone uses (the final one, those the caller
+/// streams, every one under a noise target): filtering a frame nobody sees would spend a
+/// preview budget on nothing. So `sample` must leave everything the next pass's sampling reads
+/// (sample counts, filter widths it marks by) up to date, and `frame` must change nothing
+/// the samples depend on: a render's final frame is the same whichever frames were composed.
 pub trait Strategy: Send {
-    /// Adds pass `ctx.pass`'s samples and produces its frame.
-    fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError>;
+    /// Adds pass `ctx.pass`'s samples.
+    fn sample(&mut self, ctx: &PassContext) -> Result<Sampled, RenderError>;
+
+    /// The frame of every sample so far (stats: mean spp, rays, dropped samples and method
+    /// seconds filled in; the progressive loop fills in the rest). Called after `sample` of
+    /// the same pass.
+    fn frame(&mut self, ctx: &PassContext) -> Frame;
 }
 
 /// Strategies that each render one part of the light; a frame is the sum of theirs. The
@@ -46,20 +61,27 @@ pub struct SumOfParts {
 }
 
 impl Strategy for SumOfParts {
-    fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError> {
-        let mut total: Option<PassOutput> = None;
+    fn sample(&mut self, ctx: &PassContext) -> Result<Sampled, RenderError> {
+        let mut total = Sampled { complete: true, ..Sampled::default() };
         for (i, part) in self.parts.iter_mut().enumerate() {
             let start = std::time::Instant::now();
-            let out = part.run_pass(ctx)?;
-            tracing::debug!(pass = ctx.pass, part = i, seconds = start.elapsed().as_secs_f64(), "part done");
-            total = Some(match total {
-                None => out,
-                Some(acc) => {
-                    PassOutput { frame: add_frames(acc.frame, out.frame), complete: acc.complete && out.complete }
-                }
-            });
+            let s = part.sample(ctx)?;
+            tracing::debug!(pass = ctx.pass, part = i, seconds = start.elapsed().as_secs_f64(), "part sampled");
+            // The spp maps add up, so their means do.
+            total = Sampled {
+                complete: total.complete && s.complete,
+                mean_spp: total.mean_spp + s.mean_spp,
+                rays_traced: total.rays_traced + s.rays_traced,
+                dropped_samples: total.dropped_samples + s.dropped_samples,
+            };
         }
-        Ok(total.unwrap_or_else(|| PassOutput { frame: Frame::default(), complete: true }))
+        Ok(total)
+    }
+
+    fn frame(&mut self, ctx: &PassContext) -> Frame {
+        let mut frames = self.parts.iter_mut().map(|part| part.frame(ctx));
+        let first = frames.next().unwrap_or_default();
+        frames.fold(first, add_frames)
     }
 }
 

@@ -43,7 +43,7 @@ use super::mode::FilterMode;
 use crate::pipeline::film::{interleave_rank, mean, Tally};
 use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
-use crate::pipeline::strategy::{PassContext, PassOutput, Strategy};
+use crate::pipeline::strategy::{PassContext, Sampled, Strategy};
 use crate::render::filter::{FilterKernel, FilterSurface};
 use crate::render::frame_basis::{cosine_hemisphere, to_world};
 use crate::render::gbuffer::GBuffer;
@@ -162,6 +162,9 @@ pub struct IndirectStrategy {
     /// Tokuyoshi's joint upsampling while its passes last (None without it, and after the
     /// first complete pass that traces every pixel).
     upsampling: Option<tokuyoshi::Upsampling>,
+    /// The last pass traced every pixel's indirect light completely: upsampling ends at the
+    /// next pass (its frame still composed with it).
+    upsampling_ended: bool,
     /// Projected pixel size per pixel.
     d: Vec<f64>,
     seed: u64,
@@ -191,6 +194,7 @@ impl IndirectStrategy {
             guides: Vec::new(),
             lobe_opts: job.lobe,
             upsampling: None,
+            upsampling_ended: false,
             d: Vec::new(),
             seed: hash_words(&[job.seed, STREAM]),
             rays: 0,
@@ -326,7 +330,7 @@ impl IndirectStrategy {
     /// While upsampling, keeps the indirect targets of the pixels that trace light and returns
     /// the camera samples every pixel takes (direct light only at the others); 0 otherwise.
     /// The first pass that reaches the full-resolution count traces every pixel; once one such
-    /// pass is complete, upsampling ends for good (`run_pass`).
+    /// pass is complete, upsampling ends for good (`sample`).
     fn upsample_targets(&self, pass: u32, targets: &mut [(u32, u32)]) -> u32 {
         let count = self.uniform_count(pass);
         let Some(u) = self.upsampling.as_ref().filter(|_| self.lobe_opts.upsample.active(count)) else { return 0 };
@@ -387,7 +391,7 @@ impl IndirectStrategy {
 
     /// Builds the frame of pass `pass`: filters each component and composes. Every per-pixel
     /// loop runs in parallel: at 640x480 the serial ones cost as much as a filter pass.
-    fn frame(&self, scene: &Scene, pass: u32) -> Frame {
+    fn compose(&self, scene: &Scene, pass: u32) -> Frame {
         let n = self.width * self.height;
         let mut color: Vec<[f64; 3]> = self.sums.par_iter().map(|s| mean(s.direct, s.taken)).collect();
         let mut unfiltered = color.clone();
@@ -495,9 +499,13 @@ impl IndirectStrategy {
 }
 
 impl Strategy for IndirectStrategy {
-    fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError> {
+    fn sample(&mut self, ctx: &PassContext) -> Result<Sampled, RenderError> {
         if ctx.pass == 0 {
             self.setup(ctx);
+        }
+        if self.upsampling_ended {
+            // The last pass's frame still upsampled; from this pass on nothing is.
+            self.upsampling = None;
         }
         let t = Instant::now();
         let mut targets = self.targets(ctx.scene, ctx.pass);
@@ -505,15 +513,19 @@ impl Strategy for IndirectStrategy {
         self.method_seconds += t.elapsed().as_secs_f64();
         // The initial samples (the preview's and pass 1's) record the reflector distances.
         let complete = self.trace(ctx, &targets, taken, ctx.pass <= 1)?;
+        // Every pixel has its own indirect samples now: nothing is upsampled again.
+        self.upsampling_ended = complete && taken == 0;
+        let n = self.sums.len().max(1) as f64;
+        let mean_spp = self.sums.iter().map(|s| s.taken as f32 as f64).sum::<f64>() / n;
+        Ok(Sampled { complete, mean_spp, rays_traced: self.rays, dropped_samples: self.dropped })
+    }
+
+    fn frame(&mut self, ctx: &PassContext) -> Frame {
         let t = Instant::now();
-        let mut frame = self.frame(ctx.scene, ctx.pass);
+        let mut frame = self.compose(ctx.scene, ctx.pass);
         self.method_seconds += t.elapsed().as_secs_f64();
-        if complete && taken == 0 {
-            // Every pixel has its own indirect samples now: nothing is upsampled again.
-            self.upsampling = None;
-        }
         frame.stats.method_seconds = self.method_seconds;
-        Ok(PassOutput { frame, complete })
+        frame
     }
 }
 

@@ -32,7 +32,7 @@ use super::mode::FilterMode;
 use crate::pipeline::film::{mean, Tally};
 use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
 use crate::pipeline::job::{RenderError, RenderJob};
-use crate::pipeline::strategy::{PassContext, PassOutput, Strategy};
+use crate::pipeline::strategy::{PassContext, Sampled, Strategy};
 use crate::render::camera::Camera;
 use crate::render::filter::{FilterKernel, FilterOptions, FilterSurface};
 use crate::render::gbuffer::GBuffer;
@@ -372,7 +372,7 @@ impl ShadowStrategy {
     /// Builds the frame of pass `pass`: filters each light's visibility and composes. Also
     /// returns the seconds spent on the method's own work (filter widths and filtering), the
     /// part of the frame a plain Monte Carlo render does not do.
-    fn frame(&self, pass: u32) -> (Frame, f64) {
+    fn compose(&self, pass: u32) -> (Frame, f64) {
         let mut method_seconds = 0.0;
         let (w, nl) = (self.width, self.lights.len());
         let n = w * self.height;
@@ -468,8 +468,21 @@ impl ShadowStrategy {
     }
 }
 
+impl ShadowStrategy {
+    /// The mean of the frame's spp map (`frame`): per pixel, the shadow component's samples or
+    /// the pixel's, whichever is more.
+    fn mean_spp(&self) -> f64 {
+        let nl = self.lights.len();
+        let spp = |p: usize| {
+            let shadow: u32 = (0..nl).map(|l| self.sums[p * nl + l].n).sum();
+            shadow.max(self.other[p].taken) as f32 as f64
+        };
+        (0..self.other.len()).map(spp).sum::<f64>() / self.other.len().max(1) as f64
+    }
+}
+
 impl Strategy for ShadowStrategy {
-    fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError> {
+    fn sample(&mut self, ctx: &PassContext) -> Result<Sampled, RenderError> {
         if ctx.pass == 0 {
             self.setup(ctx);
         }
@@ -485,10 +498,14 @@ impl Strategy for ShadowStrategy {
             self.fill_slopes();
         }
         self.method_seconds += t.elapsed().as_secs_f64();
-        let (mut frame, filtering) = self.frame(ctx.pass);
+        Ok(Sampled { complete, mean_spp: self.mean_spp(), rays_traced: self.rays, dropped_samples: self.dropped })
+    }
+
+    fn frame(&mut self, ctx: &PassContext) -> Frame {
+        let (mut frame, filtering) = self.compose(ctx.pass);
         self.method_seconds += filtering;
         frame.stats.method_seconds = self.method_seconds;
-        Ok(PassOutput { frame, complete })
+        frame
     }
 }
 

@@ -195,7 +195,8 @@ fn each_light_has_its_own_counts_and_they_add_up() {
     let mut last = None;
     for pass in 0..4 {
         let ctx = PassContext { scene: &j.scene, job: &j, view: &j.view, pass, stop: &stop, gbuffer: Some(&g) };
-        last = Some(st.run_pass(&ctx).expect("pass").frame);
+        st.sample(&ctx).expect("pass");
+        last = Some(Strategy::frame(&mut st, &ctx));
     }
     let frame = last.unwrap();
     let shadow = &frame.components[0];
@@ -428,7 +429,7 @@ fn jittered_samples_compute_r_only_up_to_the_antialiasing_count() {
         let stop = StopCheck::cancel_only(&CancelToken::new());
         let g = Arc::new(GBuffer::build(&j.scene, &j.view));
         for pass in 0..4 {
-            st.run_pass(&PassContext { scene: &j.scene, job: &j, view: &j.view, pass, stop: &stop, gbuffer: Some(&g) })
+            st.sample(&PassContext { scene: &j.scene, job: &j, view: &j.view, pass, stop: &stop, gbuffer: Some(&g) })
                 .expect("pass");
         }
         let floor = st.floor(3);
@@ -458,7 +459,7 @@ fn the_fill_averages_the_occluded_pixels_within_its_radius() {
     let stop = StopCheck::cancel_only(&CancelToken::new());
     let g = Arc::new(GBuffer::build(&j.scene, &j.view));
     for pass in 0..2 {
-        st.run_pass(&PassContext { scene: &j.scene, job: &j, view: &j.view, pass, stop: &stop, gbuffer: Some(&g) })
+        st.sample(&PassContext { scene: &j.scene, job: &j, view: &j.view, pass, stop: &stop, gbuffer: Some(&g) })
             .expect("pass");
     }
     let (w, h, nl, r) = (st.width as i64, st.height as i64, st.lights.len(), st.opts.fill_radius as i64);

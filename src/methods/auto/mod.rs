@@ -56,7 +56,7 @@ use crate::pipeline::allocation::{extras_round, rounds, window, ROUNDS};
 use crate::pipeline::film::{mean, Tally};
 use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
-use crate::pipeline::strategy::{PassContext, PassOutput, Strategy};
+use crate::pipeline::strategy::{PassContext, Sampled, Strategy};
 use crate::render::gbuffer::GBuffer;
 use crate::render::huge_pages::filled;
 use crate::render::light::Light;
@@ -130,6 +130,8 @@ pub struct AutoStrategy {
     diffuse_guides: Vec<PackedGuide>,
     glossy_guides: Vec<PackedGuide>,
     widths: Option<Widths>,
+    /// Each light's visibility filter width at every pixel, as the last pass left them.
+    shadow_widths: Vec<Vec<f32>>,
     /// Samples per pixel the passes so far asked for.
     target: u32,
     rays: u64,
@@ -164,6 +166,7 @@ impl AutoStrategy {
             diffuse_guides: Vec::new(),
             glossy_guides: Vec::new(),
             widths: None,
+            shadow_widths: Vec::new(),
             target: 0,
             rays: 0,
             dropped: 0,
@@ -318,7 +321,7 @@ impl AutoStrategy {
     }
 
     /// Builds the frame: filters each part and composes.
-    fn frame(&self, ctx: &PassContext, shadow_widths: &[Vec<f32>]) -> Frame {
+    fn compose(&self, ctx: &PassContext, shadow_widths: &[Vec<f32>]) -> Frame {
         let n = self.width * self.height;
         let nl = self.lights.len();
         let widths = self.widths.as_ref().expect("set up in pass 0");
@@ -500,7 +503,7 @@ pub fn pass_target(initial: u32, pass: u32, max_mean_spp: f64) -> u32 {
 }
 
 impl Strategy for AutoStrategy {
-    fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError> {
+    fn sample(&mut self, ctx: &PassContext) -> Result<Sampled, RenderError> {
         if ctx.pass == 0 {
             self.setup(ctx);
         }
@@ -518,12 +521,24 @@ impl Strategy for AutoStrategy {
                 w.update_reflectors(sums, opts);
             }
         }
+        // The visibility widths: the next pass's penumbra marks read them, this pass's frame
+        // (if composed) filters with them.
         let shadow_widths = self.shadow_widths(ctx);
-        let mut frame = self.frame(ctx, &shadow_widths);
         self.mark_narrow_penumbrae(&shadow_widths);
-        tracing::debug!(pass = ctx.pass, seconds = t.elapsed().as_secs_f64(), "auto: analysis and filters");
+        self.shadow_widths = shadow_widths;
+        tracing::debug!(pass = ctx.pass, seconds = t.elapsed().as_secs_f64(), "auto: analysis");
+        self.method_seconds += t.elapsed().as_secs_f64();
+        let n = self.sums.len().max(1) as f64;
+        let mean_spp = self.sums.iter().map(|s| s.taken as f32 as f64).sum::<f64>() / n;
+        Ok(Sampled { complete, mean_spp, rays_traced: self.rays, dropped_samples: self.dropped })
+    }
+
+    fn frame(&mut self, ctx: &PassContext) -> Frame {
+        let t = Instant::now();
+        let mut frame = self.compose(ctx, &self.shadow_widths);
+        tracing::debug!(pass = ctx.pass, seconds = t.elapsed().as_secs_f64(), "auto: filters");
         self.method_seconds += t.elapsed().as_secs_f64();
         frame.stats.method_seconds = self.method_seconds;
-        Ok(PassOutput { frame, complete })
+        frame
     }
 }

@@ -17,7 +17,7 @@ use crate::pipeline::allocation::{extras_round, pooled_sigmas, rounds, ROUNDS};
 use crate::pipeline::film::{trace_bands, Tally};
 use crate::pipeline::frame::{Frame, FrameStats, ShadingMaps};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
-use crate::pipeline::strategy::{PassContext, PassOutput, Strategy};
+use crate::pipeline::strategy::{PassContext, Sampled, Strategy};
 use crate::render::geometry::NONE;
 use crate::render::integrator::sample_from;
 use crate::render::sampler::{hash_words, PixelSampler};
@@ -105,9 +105,12 @@ pub struct BandwidthShading {
     method_seconds: f64,
     /// Seconds of pass 0's analysis (the bandwidth prediction) and upsampling setup.
     analysis_seconds: f64,
-    /// Each pixel's `S_hat` as the last frame composed it: the pixels have not changed since,
-    /// so the next pass's counts read it rather than resolve it again.
+    /// Each pixel's `S_hat` as the last pass left it: its frame and the next pass's counts
+    /// read it.
     s_hat: Vec<Option<[f64; 3]>>,
+    /// The last pass's levels, and its shaded and full-resolution camera samples (for its frame).
+    levels: Option<Vec<i32>>,
+    pass_points: (u64, u64),
 }
 
 impl BandwidthShading {
@@ -127,6 +130,8 @@ impl BandwidthShading {
             method_seconds: 0.0,
             analysis_seconds: 0.0,
             s_hat: Vec::new(),
+            levels: None,
+            pass_points: (0, 0),
         }
     }
 
@@ -287,13 +292,6 @@ impl BandwidthShading {
             _ => vec![None; self.pixels.len()],
         }
     }
-
-    /// Every pixel's estimate: `S_hat` plus its samples (`S_hat` kept for the next pass).
-    fn compose(&mut self, ctx: &PassContext) -> Vec<[f32; 3]> {
-        self.s_hat = self.s_hat(ctx);
-        let visibility = ctx.job.bandwidth.visibility;
-        self.pixels.iter().zip(&self.s_hat).map(|(px, s)| px.estimate(s.as_ref(), visibility)).collect()
-    }
 }
 
 impl BandwidthShading {
@@ -355,7 +353,7 @@ impl BandwidthShading {
 }
 
 impl Strategy for BandwidthShading {
-    fn run_pass(&mut self, ctx: &PassContext) -> Result<PassOutput, RenderError> {
+    fn sample(&mut self, ctx: &PassContext) -> Result<Sampled, RenderError> {
         let job = ctx.job;
         let opts = &job.bandwidth;
         let start = Instant::now();
@@ -392,18 +390,34 @@ impl Strategy for BandwidthShading {
         self.rays += tally.rays;
         self.dropped += tally.dropped;
         let start = Instant::now();
-        let color = self.compose(ctx);
-        let finest = finest_level(opts);
-        let shaded_points = plan.iter().filter(|p| p.lookups > 0).map(|p| p.samples as u64).sum();
-        let full_resolution_points = plan.iter().map(|p| p.samples as u64).sum();
-        let shading = self.analysis.as_ref().zip(levels).map(|(a, levels)| ShadingMaps {
+        // The next pass's counts read S_hat: resolved whether or not this pass's frame is.
+        self.s_hat = self.s_hat(ctx);
+        let analysed = self.analysis.is_some();
+        self.pass_points = (
+            if analysed { plan.iter().filter(|p| p.lookups > 0).map(|p| p.samples as u64).sum() } else { 0 },
+            if analysed { plan.iter().map(|p| p.samples as u64).sum() } else { 0 },
+        );
+        self.levels = levels;
+        self.method_seconds += start.elapsed().as_secs_f64();
+        let n = self.pixels.len().max(1) as f64;
+        let mean_spp = self.pixels.iter().map(|p| p.taken as f64).sum::<f64>() / n;
+        Ok(Sampled { complete: tally.complete, mean_spp, rays_traced: self.rays, dropped_samples: self.dropped })
+    }
+
+    fn frame(&mut self, ctx: &PassContext) -> Frame {
+        let start = Instant::now();
+        let visibility = ctx.job.bandwidth.visibility;
+        let color = self.pixels.iter().zip(&self.s_hat).map(|(px, s)| px.estimate(s.as_ref(), visibility)).collect();
+        let finest = finest_level(&ctx.job.bandwidth);
+        let shading = self.analysis.as_ref().zip(self.levels.as_ref()).map(|(a, levels)| ShadingMaps {
             bandwidth: a.bandwidth.clone(),
             level: levels.iter().map(|&l| l.max(finest) as f32).collect(),
             analysis_seconds: self.analysis_seconds,
         });
         self.method_seconds += start.elapsed().as_secs_f64();
         let n = self.pixels.len().max(1) as f64;
-        let frame = Frame {
+        let (shaded_points, full_resolution_points) = self.pass_points;
+        Frame {
             width: self.width,
             height: self.height,
             color,
@@ -418,11 +432,10 @@ impl Strategy for BandwidthShading {
                 rays_traced: self.rays,
                 dropped_samples: self.dropped,
                 method_seconds: self.method_seconds,
-                shaded_points: if self.analysis.is_some() { shaded_points } else { 0 },
-                full_resolution_points: if self.analysis.is_some() { full_resolution_points } else { 0 },
+                shaded_points,
+                full_resolution_points,
                 ..FrameStats::default()
             },
-        };
-        Ok(PassOutput { frame, complete: tally.complete })
+        }
     }
 }

@@ -1,5 +1,6 @@
 //! Tests of the pass loop on a small analytic-ish scene.
 use super::*;
+use crate::pipeline::frame::ShadingMaps;
 use crate::pipeline::job::{Halt, Method};
 use crate::render::light::{EmissionProfile, RectLight};
 use crate::render::material::Material;
@@ -335,4 +336,74 @@ fn every_method_converges_to_uniform_under_the_sky() {
         let u = *uniform_error.get_or_insert(e);
         assert!(e < 1.5 * u, "{method:?}: RMSE {e}, uniform's {u}");
     }
+}
+
+/// The frame `render_frames` composed last, and per pass whether it composed one.
+fn last_composed(j: &RenderJob, wanted: &dyn Fn(u32) -> bool) -> (Frame, Vec<bool>) {
+    let (mut last, mut composed) = (None, Vec::new());
+    render_frames(j, &CancelToken::new(), wanted, &mut |_, f| {
+        composed.push(f.is_some());
+        last = f.cloned().or(last.take());
+        true
+    })
+    .unwrap();
+    (last.expect("the final frame is composed"), composed)
+}
+
+/// A frame nobody uses is not composed, and composing one changes nothing later: every
+/// method's final frame is the same bit for bit whether every pass's frame was composed or
+/// the final one alone (what sampling reads of the last pass, such as `auto`'s penumbra marks,
+/// the end of Tokuyoshi's upsampling or `bandwidth`'s S_hat, is kept by the sampling).
+#[test]
+fn the_final_frame_is_the_same_whichever_frames_were_composed() {
+    for (name, bounces) in [("cornell-glossy", 1), ("grids", 0), ("sky-spheres", 1)] {
+        let scene = builtin(name, 24, 18);
+        for (method, upsample) in Method::ALL.iter().map(|&m| (m, 1)).chain([(Method::LobeAware, 2)]) {
+            let mut j = job(scene.clone(), Halt::passes(4));
+            (j.method, j.bounces) = (method, bounces);
+            (j.lobe.upsample.factor, j.lobe.upsample.full_resolution_spp) = (upsample, 4);
+            // Within four passes: auto's narrow scale and blend, the AAF family's later widths.
+            (j.auto.narrow_from_spp, j.auto.blend_from_spp) = (4, 16);
+            let (every, composed) = last_composed(&j, &|_| true);
+            assert_eq!(composed, [true; 4], "{name} {method:?}");
+            let (last, composed) = last_composed(&j, &|_| false);
+            assert_eq!(composed, [false, false, false, true], "{name} {method:?}");
+            let at = format!("{name} {method:?} upsample {upsample}");
+            assert_eq!(every.color, last.color, "{at}");
+            assert_eq!(every.unfiltered, last.unfiltered, "{at}");
+            assert_eq!(every.spp, last.spp, "{at}");
+            assert_eq!(every.filter_width, last.filter_width, "{at}");
+            assert_eq!(every.components, last.components, "{at}");
+            let timeless_maps = |f: &Frame| f.shading.clone().map(|m| ShadingMaps { analysis_seconds: 0.0, ..m });
+            assert!(timeless_maps(&every) == timeless_maps(&last), "{at}");
+            // Timings differ, and the error estimate needs a frame before.
+            let timeless = |s: &FrameStats| FrameStats {
+                elapsed_seconds: 0.0,
+                method_seconds: 0.0,
+                estimated_error: None,
+                ..s.clone()
+            };
+            assert_eq!(timeless(&every.stats), timeless(&last.stats), "{at}");
+        }
+    }
+}
+
+/// Under a noise target every frame is composed (the halt compares each with the one before),
+/// whatever the caller wants; the passes' stats reach the caller either way.
+#[test]
+fn a_noise_target_composes_every_frame() {
+    let mut j = job(small_scene(16, 12), Halt::passes(6));
+    j.halt.target_error = Some(1e-9);
+    let (last, composed) = last_composed(&j, &|_| false);
+    assert_eq!(composed, [true; 6]);
+    assert_eq!((last.stats.pass, last.stats.halt_reason), (5, HaltReason::MaxPasses));
+    j.halt.target_error = None;
+    let mut seen = Vec::new();
+    render_frames(&j, &CancelToken::new(), &|pass| pass == 2, &mut |s, f| {
+        seen.push((s.pass, s.mean_spp, f.is_some()));
+        true
+    })
+    .unwrap();
+    let expect: Vec<_> = (0..6).map(|p| (p, (1u64 << p) as f64, p == 2 || p == 5)).collect();
+    assert_eq!(seen, expect);
 }
