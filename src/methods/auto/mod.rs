@@ -494,8 +494,9 @@ struct IndirectPart {
 }
 
 /// Samples per pixel after pass `pass`: `initial` in pass 0, four times as many per pass after
-/// (1, 4, 16, 64, ...), at most `max_mean_spp` (0: no cap). Every frame costs a filter, so the
-/// passes grow faster than `uniform`'s doubling: fewer frames at a budget, the same samples.
+/// (1, 4, 16, 64, ...), at most `max_mean_spp` (0: no cap). Every frame a stream shows costs a
+/// filter, so the passes grow faster than `uniform`'s doubling: fewer frames at a budget, the
+/// same samples.
 pub fn pass_target(initial: u32, pass: u32, max_mean_spp: f64) -> u32 {
     let total = (initial.max(1) as u64).saturating_mul(1u64 << (2 * pass.min(20)));
     let cap = if max_mean_spp > 0.0 { max_mean_spp.ceil().min(u32::MAX as f64) as u64 } else { u64::MAX };
