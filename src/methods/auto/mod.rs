@@ -25,8 +25,9 @@
 //! - **Filter.** Tokuyoshi's gather (Eq. 1) with the depth weight (Eq. 3) and the lobe-aware
 //!   weight (Eq. 12): diffuse lobes for the visibility and the diffuse light, each pixel's
 //!   specular lobe for the glossy light (`lobe_aware::packed`).
-//! - **Bias against noise.** From `narrow_from_spp` samples on, the diffuse indirect light is
-//!   also filtered at half its width, and each pixel leans towards that frame as far as the wide
+//! - **Bias against noise.** From `narrow_from_spp` samples on (`narrow_crease_from_spp` at
+//!   pixels next to a change of the surface normal), the diffuse indirect light is also
+//!   filtered at half its width, and each pixel leans towards that frame as far as the wide
 //!   filter's bias, read off its neighbourhood, outweighs the narrow one's noise (`scales.rs`:
 //!   a room's creases). From `blend_from_spp` on, each pixel leans on its own unfiltered mean
 //!   the same way (`blend.rs`).
@@ -129,6 +130,8 @@ pub struct AutoStrategy {
     /// Tokuyoshi's guides from the G-buffer: diffuse lobes and specular lobes.
     diffuse_guides: Vec<PackedGuide>,
     glossy_guides: Vec<PackedGuide>,
+    /// Pixels within 2 px of a change of the surface normal (`scales::creases`).
+    creases: Vec<bool>,
     widths: Option<Widths>,
     /// Each light's visibility filter width at every pixel, as the last pass left them.
     shadow_widths: Vec<Vec<f32>>,
@@ -165,6 +168,7 @@ impl AutoStrategy {
             gbuffer: None,
             diffuse_guides: Vec::new(),
             glossy_guides: Vec::new(),
+            creases: Vec::new(),
             widths: None,
             shadow_widths: Vec::new(),
             target: 0,
@@ -193,6 +197,7 @@ impl AutoStrategy {
         if self.glossy {
             self.glossy_guides = packed(tokuyoshi::guides(ctx, &g, true, &ctx.job.lobe, kappa));
         }
+        self.creases = scales::creases(&self.diffuse_guides, self.width, 2);
         self.widths = Some(Widths::new(ctx, &g));
         tracing::debug!(seconds = t.elapsed().as_secs_f64(), "auto: guides and pixel sizes");
         self.method_seconds += t.elapsed().as_secs_f64();
@@ -368,8 +373,12 @@ impl AutoStrategy {
             (true, false) => &[false],
             (true, true) => &[false, true],
         };
-        let from = self.opts.narrow_from_spp;
-        let two_scales = self.opts.narrow_scale > 0.0 && !parts.is_empty() && self.sums.iter().any(|s| s.x_n >= from);
+        // The narrow scale starts at `narrow_from_spp`, and earlier at creases.
+        let (from, crease_from) = (self.opts.narrow_from_spp, self.opts.narrow_crease_from_spp);
+        let from_at = |p: usize| if self.creases[p] { from.min(crease_from) } else { from };
+        let two_scales = self.opts.narrow_scale > 0.0
+            && !parts.is_empty()
+            && (self.sums.par_iter().enumerate()).any(|(p, s)| s.x_n >= from_at(p));
         let mut narrow_sigma = vec![0.0f32; n];
         let mut narrow_power = vec![1.0f32; n];
         let indirect: Vec<IndirectPart> = parts
@@ -432,7 +441,7 @@ impl AutoStrategy {
             })
             .collect();
         let composed = if two_scales {
-            scales::select(self.width, &composed, &self.sums, &narrow_sigma, &narrow_power, from)
+            scales::select(self.width, &composed, &self.sums, &narrow_sigma, &narrow_power, &from_at)
         } else {
             composed.par_iter().map(|c| (c.wide, c.unfiltered)).collect()
         };

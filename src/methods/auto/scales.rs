@@ -23,6 +23,9 @@
 //! tail at these counts, and narrowing it on that reading raised the error on `cornell-glossy`.
 use super::blend;
 use super::sample::PixelSums;
+use crate::methods::lobe_aware::packed::PackedGuide;
+use crate::pipeline::allocation::window;
+use glam::Vec3;
 use rayon::prelude::*;
 
 /// A pixel's frame value with the diffuse indirect light filtered at the AAF width (`wide`) and
@@ -37,7 +40,7 @@ pub(super) struct Composed {
 /// Per pixel, (frame value, unfiltered value): the wide value leaning towards the narrow one
 /// where the neighbourhood shows the wide filter's bias (module docs). `narrow_sigma[p]` is the
 /// narrow diffuse width in pixels and `narrow_power[p]` the narrow frame's noise power; pixels
-/// with fewer than `from_spp` samples, or a `narrow_sigma` of 0 (nothing filtered), keep the
+/// with fewer than `from_spp(p)` samples, or a `narrow_sigma` of 0 (nothing filtered), keep the
 /// wide value exactly.
 pub(super) fn select(
     width: usize,
@@ -45,22 +48,40 @@ pub(super) fn select(
     sums: &[PixelSums],
     narrow_sigma: &[f32],
     narrow_power: &[f32],
-    from_spp: u32,
+    from_spp: &(dyn Fn(usize) -> u32 + Sync),
 ) -> Vec<([f64; 3], [f64; 3])> {
-    let variance: Vec<f64> = (sums.par_iter().zip(narrow_sigma).zip(narrow_power))
-        .map(
-            |((s, &sigma), &power)| {
-                if s.x_n >= from_spp.max(2) && sigma > 0.0 {
+    let variance: Vec<f64> =
+        (sums.par_iter().zip(narrow_sigma).zip(narrow_power).enumerate())
+            .map(|(p, ((s, &sigma), &power))| {
+                if s.x_n >= from_spp(p).max(2) && sigma > 0.0 {
                     s.mean_variance() * power as f64
                 } else {
                     f64::INFINITY
                 }
-            },
-        )
-        .collect();
+            })
+            .collect();
     let pairs: Vec<([f64; 3], [f64; 3])> = composed.par_iter().map(|c| (c.wide, c.narrow)).collect();
     let weights = blend::pooled_weights(width, &pairs, &variance);
     (composed.par_iter().zip(&weights)).map(|(c, &a)| (blend::mix(c.wide, c.narrow, a), c.unfiltered)).collect()
+}
+
+/// Per pixel, whether a valid guide within `radius` pixels (a square window) has a lobe axis
+/// more than about 26 degrees (cosine 0.9) from the pixel's own: the pixels next to a change of
+/// the surface normal, a room's creases and objects' edges, where the wide filter's bias lies.
+pub(super) fn creases(guides: &[PackedGuide], width: usize, radius: usize) -> Vec<bool> {
+    let height = guides.len() / width.max(1);
+    (0..guides.len())
+        .into_par_iter()
+        .map(|p| {
+            let g = &guides[p];
+            let axis = Vec3::from(g.axis);
+            g.is_valid()
+                && window(width, height, p, radius).any(|q| {
+                    let o = &guides[q];
+                    o.is_valid() && axis.dot(Vec3::from(o.axis)) < 0.9
+                })
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -101,16 +122,45 @@ mod tests {
                 Composed { wide: [wide; 3], narrow: [narrow; 3], unfiltered: [1.0; 3] }
             })
             .collect();
-        let out = select(w, &composed, &sums, &sigma, &power, 32);
+        let out = select(w, &composed, &sums, &sigma, &power, &|_| 32);
         let crease = out[4 * w + 3].0[0];
         assert!((crease - 1.0).abs() < 0.05, "crease {crease}");
         for p in (0..w * h).filter(|p| (p / w) < 2 || (p / w) > 6) {
             assert_eq!(out[p].0, composed[p].wide, "pixel {p} is noise only");
             assert_eq!(out[p].1, composed[p].unfiltered);
         }
-        let early = select(w, &composed, &sums, &sigma, &power, 65);
+        let early = select(w, &composed, &sums, &sigma, &power, &|_| 65);
         assert!(early.iter().zip(&composed).all(|(o, c)| o.0 == c.wide));
-        let unfiltered = select(w, &composed, &sums, &vec![0.0; w * h], &power, 32);
+        let unfiltered = select(w, &composed, &sums, &vec![0.0; w * h], &power, &|_| 32);
         assert!(unfiltered.iter().zip(&composed).all(|(o, c)| o.0 == c.wide));
+        // A threshold per pixel: only the crease's rows start early enough at 64 samples.
+        let by_row = select(w, &composed, &sums, &sigma, &power, &|p| if (3..=5).contains(&(p / w)) { 32 } else { 65 });
+        assert!((by_row[4 * w + 3].0[0] - 1.0).abs() < 0.05);
+        assert!((0..w * h).filter(|p| !(3..=5).contains(&(p / w))).all(|p| by_row[p].0 == composed[p].wide));
+    }
+
+    /// A floor meeting a wall along row 5 (normals +y above, +z from row 5 on): the pixels
+    /// within the radius of the change are creases, the others not; invalid guides (the sky)
+    /// are never creases and mark none.
+    #[test]
+    fn creases_are_the_pixels_near_a_change_of_the_normal() {
+        let (w, h) = (6, 10);
+        let guide = |axis: [f32; 3]| PackedGuide { axis, sharpness: 1.0, ln_sharpness: 0.0, depth: 1.0, valid: 1.0 };
+        let mut guides: Vec<PackedGuide> =
+            (0..w * h).map(|p| if p / w < 5 { guide([0.0, 1.0, 0.0]) } else { guide([0.0, 0.0, 1.0]) }).collect();
+        let c = creases(&guides, w, 2);
+        for p in 0..w * h {
+            assert_eq!(c[p], (3..=6).contains(&(p / w)), "pixel {p}");
+        }
+        // 20 degrees apart: not a crease.
+        let tilted = [0.0, 20f32.to_radians().cos(), 20f32.to_radians().sin()];
+        let gentle: Vec<PackedGuide> =
+            (0..w * h).map(|p| guide(if p / w < 5 { [0.0, 1.0, 0.0] } else { tilted })).collect();
+        assert!(creases(&gentle, w, 2).iter().all(|&x| !x));
+        // The wall's rows invalid: nothing is a crease.
+        for g in &mut guides[5 * w..] {
+            *g = PackedGuide::INVALID;
+        }
+        assert!(creases(&guides, w, 2).iter().all(|&x| !x));
     }
 }
