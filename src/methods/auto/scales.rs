@@ -149,8 +149,8 @@ mod tests {
         let mut guides: Vec<PackedGuide> =
             (0..w * h).map(|p| if p / w < 5 { guide([0.0, 1.0, 0.0]) } else { guide([0.0, 0.0, 1.0]) }).collect();
         let c = creases(&guides, w, 2);
-        for p in 0..w * h {
-            assert_eq!(c[p], (3..=6).contains(&(p / w)), "pixel {p}");
+        for (p, &crease) in c.iter().enumerate() {
+            assert_eq!(crease, (3..=6).contains(&(p / w)), "pixel {p}");
         }
         // 20 degrees apart: not a crease.
         let tilted = [0.0, 20f32.to_radians().cos(), 20f32.to_radians().sin()];
