@@ -45,8 +45,8 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
 /// visibility weight, Mehta et al. 2012 Eq. 10) and its glossy one, before visibility. With
 /// `lobe_strategy` the glossy one is weighed against one lobe sample and `n_light` light
 /// samples (Veach's multi-sample power heuristic, counts included); the diffuse one has light
-/// sampling alone. None where the sample is below the
-/// surface's horizon, carries nothing, or is not finite (then it needs no shadow ray).
+/// sampling alone. None where the sample is below the surface's horizon, carries nothing, or is
+/// not finite (then it needs no shadow ray).
 #[inline]
 pub fn light_terms(
     brdf: &Brdf,
