@@ -120,10 +120,19 @@ pub fn rounds(before: u32, target: u32) -> Vec<u32> {
     out
 }
 
-/// The count pixel p is traced up to in sweep `k` (1 to `ROUNDS`) of a pass's adaptive extras,
-/// from the uniform share `base` to its own `count`: each pixel a like fraction of its own way.
+/// Sweeps over the image of a pass's adaptive extras. Finer than the even part's: the extras
+/// are most of a pass, and a quarter of pass 2's (4 to 16 spp on average) costs as much as
+/// three samples per pixel, most of a preview budget, so with four sweeps the deadline fell
+/// inside the first and the rows below that point (a room's floor and its shadows) had none. A
+/// sweep reads the counts of the pixels it leaves alone, which costs little against a sample.
+pub const EXTRA_ROUNDS: u32 = 16;
+
+/// The count pixel p is traced up to in sweep `k` (1 to `EXTRA_ROUNDS`) of a pass's adaptive
+/// extras, from the uniform share `base` to its own `count`: each pixel a like fraction of its
+/// own way.
 pub fn extras_round(base: u32, count: u32, k: u32) -> u32 {
-    (base + (count.saturating_sub(base) * k.min(ROUNDS)).div_ceil(ROUNDS)).min(count)
+    (base + (count.saturating_sub(base) as u64 * k.min(EXTRA_ROUNDS) as u64).div_ceil(EXTRA_ROUNDS as u64) as u32)
+        .min(count)
 }
 
 #[cfg(test)]
@@ -142,10 +151,14 @@ mod tests {
         assert_eq!(rounds(0, 1), [1]);
         assert_eq!(rounds(64, 64), [64], "a pass that adds nothing");
         assert_eq!(rounds(u32::MAX - 2, u32::MAX), [u32::MAX - 1, u32::MAX]);
-        // The extras: a quarter of each pixel's way per sweep, the last sweep its count.
-        assert_eq!((1..=ROUNDS).map(|k| extras_round(4, 20, k)).collect::<Vec<_>>(), [8, 12, 16, 20]);
-        assert_eq!((1..=ROUNDS).map(|k| extras_round(4, 5, k)).collect::<Vec<_>>(), [5, 5, 5, 5]);
+        // The extras: a sixteenth of each pixel's way per sweep (rounded up), the last sweep
+        // its count.
+        let sweeps = |base, count| (1..=EXTRA_ROUNDS).map(|k| extras_round(base, count, k)).collect::<Vec<_>>();
+        assert_eq!(sweeps(4, 36), (1..=16).map(|k| 4 + 2 * k).collect::<Vec<_>>());
+        assert_eq!(sweeps(4, 12)[..4], [5, 5, 6, 6]);
+        assert_eq!(sweeps(4, 5), [5; 16]);
         assert_eq!(extras_round(4, 4, 1), 4, "a pixel with no extras");
+        assert_eq!(extras_round(0, u32::MAX, EXTRA_ROUNDS), u32::MAX, "no overflow");
     }
 
     /// Four pixels, one noisy: it gets the adaptive half of the four pixels' samples on top of

@@ -53,7 +53,7 @@ use super::lobe_aware::packed::{gather, gather_with_power, PackedGuide, PackedOp
 use super::mode::FilterMode;
 use super::parts;
 use super::uniform::Uniform;
-use crate::pipeline::allocation::{extras_round, rounds, window, ROUNDS};
+use crate::pipeline::allocation::{extras_round, rounds, window, EXTRA_ROUNDS};
 use crate::pipeline::film::{mean, Tally};
 use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
@@ -207,7 +207,8 @@ impl AutoStrategy {
     /// Traces every pixel from `before` up to `target` samples, or up to its own count once they
     /// adapt: then first every pixel up to the pass's uniform share and only then the adaptive
     /// extras, so that a pass the deadline cuts has raised the whole image before its
-    /// penumbrae. The even part runs in `ROUNDS` sweeps over the image (`rounds`).
+    /// penumbrae. The even part runs in `ROUNDS` sweeps over the image (`rounds`), the extras
+    /// in `EXTRA_ROUNDS`.
     fn trace(&mut self, ctx: &PassContext, before: u32, target: u32) -> Result<bool, RenderError> {
         let nl = self.lights.len();
         let Some(counts) =
@@ -219,8 +220,8 @@ impl AutoStrategy {
         if !self.trace_rounds(ctx, before, uniform, &|p| counts[p])? {
             return Ok(false);
         }
-        // The extras in sweeps too, each pixel a like fraction of its own further.
-        for k in 1..=ROUNDS {
+        // The extras in sweeps too, finer ones, each pixel a like fraction of its own further.
+        for k in 1..=EXTRA_ROUNDS {
             if !self.trace_to(ctx, &|p| extras_round(uniform, counts[p], k))? {
                 return Ok(false);
             }

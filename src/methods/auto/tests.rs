@@ -402,8 +402,9 @@ fn a_pass_cut_in_its_adaptive_extras_leaves_like_fractions() {
     let uniform = j.auto.proportional().uniform_share(16);
     assert_eq!(uniform, 4, "the defaults this test is written for");
     assert!(full.iter().any(|&n| n >= 32.0), "some pixels adapt");
-    let round = |p: usize, k: u32| (uniform + ((full[p] as u32 - uniform) * k).div_ceil(4)) as f32;
-    for k in 0..4u32 {
+    let sweeps = crate::pipeline::allocation::EXTRA_ROUNDS;
+    let round = |p: usize, k: u32| (uniform + ((full[p] as u32 - uniform) * k).div_ceil(sweeps)) as f32;
+    for k in [0, 1, sweeps / 2, sweeps - 1] {
         j.halt = Halt::passes(4);
         // One sweep up to the uniform share (nothing to add: pass 1 left four samples), then
         // k whole rounds of the extras and half of the next.

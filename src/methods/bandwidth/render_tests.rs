@@ -195,7 +195,7 @@ fn a_pass_cut_in_its_extras_leaves_each_pixel_a_like_fraction_of_its_way() {
     let j = job(s, Method::Bandwidth, 5, 4, 0);
     let pixels = 48 * 32;
     // Pass 4 goes from 8 to 16 spp; its uniform share is 8, so its sweeps are one that traces
-    // nothing, then the extras' four.
+    // nothing, then the extras' sixteen.
     let base = j.bandwidth.proportional().uniform_share(16);
     assert_eq!(base, 8, "the defaults this test is written for");
     let frames = all_frames(&j);

@@ -13,7 +13,7 @@ use super::levels::pyramid;
 use super::options::Visibility;
 use super::sample::{sample_terms, shade, LookupStream, MAX_LOOKUPS};
 use crate::methods::uniform::Uniform;
-use crate::pipeline::allocation::{extras_round, pooled_sigmas, rounds, ROUNDS};
+use crate::pipeline::allocation::{extras_round, pooled_sigmas, rounds, EXTRA_ROUNDS};
 use crate::pipeline::film::{trace_bands, Tally};
 use crate::pipeline::frame::{Frame, FrameStats, ShadingMaps};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
@@ -320,7 +320,7 @@ impl BandwidthShading {
     }
 
     /// Traces the pass: every pixel up to the pass's uniform share in sweeps over the image,
-    /// then the adaptive extras in `ROUNDS` more, so that a pass the deadline cuts leaves the
+    /// then the adaptive extras in `EXTRA_ROUNDS` more, so that a pass the deadline cuts leaves the
     /// counts even; without adaptive counts, every pixel its plan's samples in one sweep.
     fn trace_pass(
         &mut self,
@@ -336,7 +336,8 @@ impl BandwidthShading {
         let before = self.base_spp.min(u32::MAX as u64) as u32;
         let uniform = ctx.job.bandwidth.proportional().uniform_share(target);
         let mut total = Tally { complete: true, ..Tally::default() };
-        let sweeps = rounds(before, uniform).into_iter().map(|r| (r, 0)).chain((1..=ROUNDS).map(|k| (uniform, k)));
+        let sweeps =
+            rounds(before, uniform).into_iter().map(|r| (r, 0)).chain((1..=EXTRA_ROUNDS).map(|k| (uniform, k)));
         for (round, k) in sweeps {
             let tally = if k == 0 {
                 self.trace(ctx, plan, &|p| counts[p].min(round))?
