@@ -182,12 +182,33 @@ impl StopCheck {
                 return true;
             }
         }
-        self.cancel.is_cancelled() || self.deadline.is_some_and(|d| Instant::now() >= d)
+        self.cancel.is_cancelled() || self.deadline.is_some_and(|d| clock_due() && Instant::now() >= d)
     }
 
     pub fn is_cancelled(&self) -> bool {
         self.cancel.is_cancelled()
     }
+}
+
+/// A thread reads the clock at every this many stop checks. The methods check once per pixel
+/// and sweep of the image, and in the sweeps of a pass's adaptive extras most pixels have
+/// nothing to add, so reading the clock at each check cost more than the bookkeeping it
+/// guards. A deadline is then overrun by at most this many pixels' work per thread, which
+/// grows with a pass's samples as the budget does.
+const CLOCK_EVERY: u32 = 8;
+
+thread_local! {
+    static CHECKS: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };
+}
+
+/// Whether this check is one of the `CLOCK_EVERY` that read the clock.
+#[inline]
+fn clock_due() -> bool {
+    CHECKS.with(|c| {
+        let n = c.get().wrapping_add(1);
+        c.set(n);
+        n.is_multiple_of(CLOCK_EVERY)
+    })
 }
 
 #[cfg(test)]
@@ -207,5 +228,22 @@ pub(crate) mod tests {
         let out = f();
         CUT.with(|c| c.set(None));
         out
+    }
+
+    /// A passed deadline stops within `CLOCK_EVERY` checks on a thread, a cancellation at the
+    /// next check, and a deadline ahead or none never.
+    #[test]
+    fn a_passed_deadline_stops_within_a_few_checks() {
+        use super::{CancelToken, StopCheck, CLOCK_EVERY};
+        use std::time::{Duration, Instant};
+        let cancel = CancelToken::default();
+        let passed = StopCheck::new(&cancel, Some(Instant::now() - Duration::from_millis(1)));
+        let first = (1..=2 * CLOCK_EVERY).find(|_| passed.should_stop());
+        assert!(first.is_some_and(|n| n <= CLOCK_EVERY), "stopped at check {first:?}");
+        let ahead = StopCheck::new(&cancel, Some(Instant::now() + Duration::from_secs(3600)));
+        let none = StopCheck::new(&cancel, None);
+        assert!((0..4 * CLOCK_EVERY).all(|_| !ahead.should_stop() && !none.should_stop()));
+        cancel.cancel();
+        assert!(ahead.should_stop() && none.should_stop());
     }
 }

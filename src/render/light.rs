@@ -702,6 +702,12 @@ impl ClippedPolygon {
 
 /// The part of polygon `poly` above the planes through `x` with normals `n` and `ng`.
 fn clip_above_both(x: Vec3, n: Vec3, ng: Vec3, poly: &[Vec3; 4]) -> ClippedPolygon {
+    // Most receivers see the whole light: then the clips would copy it unchanged (the same
+    // signed distances decide, so the result is the same bit for bit).
+    let above = |n: Vec3| poly.iter().all(|&p| n.as_dvec3().dot((p - x).as_dvec3()) > 0.0);
+    if above(n) && above(ng) {
+        return ClippedPolygon::new(poly);
+    }
     ClippedPolygon::new(poly).clip_above(x, n).clip_above(x, ng)
 }
 
@@ -726,10 +732,12 @@ impl PointLight {
 /// (e.g. Arvo 1995, "Applications of Irradiance Tensors"). Valid when the whole polygon is
 /// above x's horizon. The analytic oracle for the direct-lighting tests.
 pub fn polygon_irradiance(x: Vec3, n: Vec3, vertices: &[Vec3]) -> f64 {
-    let dir = |v: Vec3| (v - x).as_dvec3().normalize();
+    // theta and gamma below depend on the directions alone, so the vertices need no
+    // normalising.
+    let dir = |v: Vec3| (v - x).as_dvec3();
     let n = n.as_dvec3();
     let Some(&first) = vertices.first() else { return 0.0 };
-    // Each vertex's direction once: it ends one edge and starts the next.
+    // Each vertex's offset once: it ends one edge and starts the next.
     let first = dir(first);
     let mut a = first;
     let mut sum = 0.0f64;
@@ -737,12 +745,12 @@ pub fn polygon_irradiance(x: Vec3, n: Vec3, vertices: &[Vec3]) -> f64 {
         let b = if i + 1 < vertices.len() { dir(vertices[i + 1]) } else { first };
         // theta = atan2(|a x b|, a . b) and n . gamma = n . (a x b) / |a x b|: one square root
         // for both, and atan2 keeps theta accurate on the short edges of a far light, where
-        // acos of a dot product near 1 loses it.
+        // acos of a dot product near 1 loses it (`atan2_nonneg`: |a x b| is never negative).
         let c = a.cross(b);
         let s = c.length();
         // A repeated vertex (a corner on the clipping plane is emitted twice) is an empty edge.
         if s > 0.0 {
-            sum += s.atan2(a.dot(b)) / s * n.dot(c);
+            sum += super::fast_math::atan2_nonneg(s, a.dot(b)) / s * n.dot(c);
         }
         a = b;
     }
