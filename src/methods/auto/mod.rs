@@ -527,8 +527,9 @@ impl Strategy for AutoStrategy {
         // The analysis samples just added move the slopes and reflector distances.
         if before < self.opts.analysis_spp {
             self.update_slopes(ctx.job.aaf.fill_radius as usize);
+            // Reflector distances set the indirect widths alone.
             let (sums, opts) = (&self.sums, &self.opts);
-            if let Some(w) = self.widths.as_mut() {
+            if let Some(w) = self.widths.as_mut().filter(|_| ctx.job.bounces > 0) {
                 w.update_reflectors(sums, opts);
             }
         }
