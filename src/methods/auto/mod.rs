@@ -63,7 +63,7 @@ use crate::render::huge_pages::filled;
 use crate::render::light::Light;
 use crate::render::sampler::hash_words;
 use rayon::prelude::*;
-use sample::{LightSums, PixelSums, Sampling};
+use sample::{IndirectSums, LightSums, PixelSums, Sampling};
 use scales::Composed;
 use std::sync::Arc;
 use std::time::Instant;
@@ -122,6 +122,8 @@ pub struct AutoStrategy {
     glossy: bool,
     seed: u64,
     sums: Vec<PixelSums>,
+    /// Per pixel in renders with bounces; empty in direct-light renders.
+    indirect: Vec<IndirectSums>,
     /// Pixel-major: light_sums[pixel * lights + l].
     light_sums: Vec<LightSums>,
     /// Per pixel-light, the slopes its visibility is filtered with (from the neighbourhood).
@@ -163,6 +165,7 @@ impl AutoStrategy {
             glossy: job.bounces > 0 && job.scene.glossy,
             seed: hash_words(&[job.seed, STREAM]),
             sums: Vec::new(),
+            indirect: Vec::new(),
             light_sums: Vec::new(),
             slopes: Vec::new(),
             gbuffer: None,
@@ -182,6 +185,9 @@ impl AutoStrategy {
         let g = Arc::clone(ctx.gbuffer());
         let n = self.width * self.height;
         self.sums = filled(n, PixelSums::default());
+        if ctx.job.bounces > 0 {
+            self.indirect = filled(n, IndirectSums::default());
+        }
         // At least one entry per pixel, so that the rows of sums and of light sums pair up
         // (`trace`) in a scene with no rectangular light too.
         self.light_sums = filled(n * self.lights.len().max(1), LightSums::default());
@@ -291,12 +297,8 @@ impl AutoStrategy {
             penumbra_rays: self.opts.penumbra_rays,
         };
         let seed = self.seed;
-        let results: Vec<Tally> = self
-            .sums
-            .par_chunks_mut(w)
-            .zip(self.light_sums.par_chunks_mut(w * nl.max(1)))
-            .enumerate()
-            .map(|(y, (row, light_row))| {
+        let trace_row =
+            |y: usize, row: &mut [PixelSums], light_row: &mut [LightSums], mut ind: Option<&mut [IndirectSums]>| {
                 let (mut rays, mut dropped) = (0u64, 0u64);
                 for (x, px) in row.iter_mut().enumerate() {
                     if ctx.stop.should_stop() {
@@ -305,14 +307,22 @@ impl AutoStrategy {
                     let lights = &mut light_row[x * nl..(x + 1) * nl];
                     let target = count(y * w + x);
                     while px.taken < target {
-                        let (r, d) = sampling.run(x, y, seed, px, lights);
+                        let indirect = ind.as_deref_mut().map(|r| &mut r[x]);
+                        let (r, d) = sampling.run((x, y), seed, px, lights, indirect);
                         rays += r;
                         dropped += d;
                     }
                 }
                 Tally { rays, dropped, complete: true }
-            })
-            .collect();
+            };
+        let rows = self.sums.par_chunks_mut(w).zip(self.light_sums.par_chunks_mut(w * nl.max(1))).enumerate();
+        let results: Vec<Tally> = if self.indirect.is_empty() {
+            rows.map(|(y, (row, light_row))| trace_row(y, row, light_row, None)).collect()
+        } else {
+            (rows.zip(self.indirect.par_chunks_mut(w)))
+                .map(|((y, (row, light_row)), ind)| trace_row(y, row, light_row, Some(ind)))
+                .collect()
+        };
         Tally::settle(&results, ctx.stop, &mut self.rays, &mut self.dropped)
     }
 
@@ -385,10 +395,10 @@ impl AutoStrategy {
         let indirect: Vec<IndirectPart> = parts
             .iter()
             .map(|&glossy| {
-                let at = |p: usize| if glossy { &self.sums[p].glossy } else { &self.sums[p].diffuse };
+                let at = |p: usize| if glossy { &self.indirect[p].glossy } else { &self.indirect[p].diffuse };
                 let mut light: Vec<[f32; 3]> =
                     (0..n).into_par_iter().map(|p| mean(at(p).light, at(p).surface).map(|x| x as f32)).collect();
-                let sigma = widths.indirect(ctx, glossy, &self.sums, &self.opts);
+                let sigma = widths.indirect(ctx, glossy, &self.indirect, &self.opts);
                 let base = if glossy { &self.glossy_guides } else { &diffuse_guides };
                 let guides = invalid_unless(base, &|p| at(p).surface > 0);
                 let narrow = (two_scales && !glossy).then(|| {
@@ -428,7 +438,7 @@ impl AutoStrategy {
                 }
                 let mut narrow = color;
                 for IndirectPart { glossy, light, narrow: narrow_light } in &indirect {
-                    let cs = if *glossy { &s.glossy } else { &s.diffuse };
+                    let cs = if *glossy { &self.indirect[p].glossy } else { &self.indirect[p].diffuse };
                     let (k, raw, prod) =
                         (mean(cs.reflectance, cs.n), mean(cs.light, cs.surface), mean(cs.product, cs.n));
                     let narrow_light = narrow_light.as_ref().unwrap_or(light);
@@ -528,9 +538,9 @@ impl Strategy for AutoStrategy {
         if before < self.opts.analysis_spp {
             self.update_slopes(ctx.job.aaf.fill_radius as usize);
             // Reflector distances set the indirect widths alone.
-            let (sums, opts) = (&self.sums, &self.opts);
-            if let Some(w) = self.widths.as_mut().filter(|_| ctx.job.bounces > 0) {
-                w.update_reflectors(sums, opts);
+            let (indirect, opts) = (&self.indirect, &self.opts);
+            if let Some(w) = self.widths.as_mut().filter(|_| !indirect.is_empty()) {
+                w.update_reflectors(indirect, opts);
             }
         }
         // The visibility widths: the next pass's penumbra marks read them, this pass's frame

@@ -12,19 +12,14 @@ use crate::render::sampler::PixelSampler;
 use crate::render::scene::{Scene, Surface};
 use glam::Vec3;
 
-/// A pixel's running sums of everything but the rectangular lights' diffuse direct light.
+/// A pixel's running sums of everything but the rectangular lights' diffuse direct light and
+/// the indirect light (`IndirectSums`).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct PixelSums {
     /// Camera samples drawn: every part's divisor and the next sample index.
     pub taken: u32,
     /// Light no filter touches: emission, point lights, the glossy part of rect lights.
     pub rest: [f64; 3],
-    /// Indirect light under the cosine lobe (D) and under the glossy lobe (S), untextured.
-    pub diffuse: ComponentSums,
-    pub glossy: ComponentSums,
-    /// Nearest and farthest reflector hit by the analysis samples' bounce rays.
-    pub z_min: f32,
-    pub z_max: f32,
     /// What the first camera sample saw (object and shading normal; None: nothing), and whether
     /// a later one of the first `r_block` saw something else: the pixel straddles an edge.
     pub first_seen: Option<(u32, Vec3)>,
@@ -52,10 +47,6 @@ impl Default for PixelSums {
         PixelSums {
             taken: 0,
             rest: [0.0; 3],
-            diffuse: ComponentSums::default(),
-            glossy: ComponentSums::default(),
-            z_min: f32::INFINITY,
-            z_max: 0.0,
             first_seen: None,
             mixed: false,
             seen_normals: Vec3::ZERO,
@@ -65,6 +56,29 @@ impl Default for PixelSums {
             y: 0.0,
             y2: 0.0,
             y_n: 0,
+        }
+    }
+}
+
+/// A pixel's sums of the indirect light, in renders with bounces alone (a direct-light render
+/// keeps none: they are over half of a pixel's sums, and a fresh page of memory costs a fault).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct IndirectSums {
+    /// Indirect light under the cosine lobe (D) and under the glossy lobe (S), untextured.
+    pub diffuse: ComponentSums,
+    pub glossy: ComponentSums,
+    /// Nearest and farthest reflector hit by the analysis samples' bounce rays.
+    pub z_min: f32,
+    pub z_max: f32,
+}
+
+impl Default for IndirectSums {
+    fn default() -> Self {
+        IndirectSums {
+            diffuse: ComponentSums::default(),
+            glossy: ComponentSums::default(),
+            z_min: f32::INFINITY,
+            z_max: 0.0,
         }
     }
 }
@@ -195,8 +209,16 @@ pub(super) struct Sampling<'a> {
 }
 
 impl Sampling<'_> {
-    /// Traces sample `px.taken` of pixel (x, y) into the sums. Returns (rays, dropped).
-    pub fn run(&self, x: usize, y: usize, seed: u64, px: &mut PixelSums, lights: &mut [LightSums]) -> (u64, u64) {
+    /// Traces sample `px.taken` of pixel (x, y) into the sums (`indirect`: the pixel's indirect
+    /// sums, given exactly when the render has bounces). Returns (rays, dropped).
+    pub fn run(
+        &self,
+        (x, y): (usize, usize),
+        seed: u64,
+        px: &mut PixelSums,
+        lights: &mut [LightSums],
+        indirect: Option<&mut IndirectSums>,
+    ) -> (u64, u64) {
         let (scene, job) = (self.scene, self.job);
         let index = px.taken;
         px.taken += 1;
@@ -204,7 +226,7 @@ impl Sampling<'_> {
         let j = sampler.next_2d();
         let j = if job.pixel_centers { [0.5, 0.5] } else { j };
         let dir = job.view.direction(x as f32 + j[0], y as f32 + j[1]);
-        let indirect = job.bounces > 0;
+        debug_assert_eq!(indirect.is_some(), job.bounces > 0, "indirect sums exactly with bounces");
         let r_due = self.r_due(index, px.mixed);
         let Some(hit) = scene.intersect(job.view.position, dir, 0.0) else {
             px.note_seen(index, self.r_block, None);
@@ -215,9 +237,9 @@ impl Sampling<'_> {
                     lights[*l].r_n += u32::from(r_due);
                 }
             }
-            if indirect {
-                px.diffuse.add(Vec3::ZERO, None);
-                px.glossy.add(Vec3::ZERO, None);
+            if let Some(ind) = indirect {
+                ind.diffuse.add(Vec3::ZERO, None);
+                ind.glossy.add(Vec3::ZERO, None);
             }
             let background = scene.background(dir);
             for c in 0..3 {
@@ -314,8 +336,8 @@ impl Sampling<'_> {
             px.add_y(rest + shadowed_r);
         }
         let mut x = rest + diffuse_direct;
-        if indirect {
-            let (r, d, reflected) = self.indirect(&hit, wo, front, analysis, &mut sampler, px);
+        if let Some(ind) = indirect {
+            let (r, d, reflected) = self.indirect(&hit, wo, front, analysis, &mut sampler, ind);
             rays += r;
             dropped += d;
             x += reflected;
@@ -347,7 +369,7 @@ impl Sampling<'_> {
         front: bool,
         analysis: bool,
         sampler: &mut PixelSampler,
-        px: &mut PixelSums,
+        px: &mut IndirectSums,
     ) -> (u64, u64, Vec3) {
         let scene = self.scene;
         let bounces = self.job.bounces;
@@ -399,7 +421,7 @@ pub(super) fn r_due(r_block: u32, index: u32, mixed: bool) -> bool {
     mixed || index < block || (index / block).is_multiple_of(4)
 }
 
-fn record_reflector(px: &mut PixelSums, z: Option<f32>) {
+fn record_reflector(px: &mut IndirectSums, z: Option<f32>) {
     if let Some(t) = z {
         px.z_min = px.z_min.min(t);
         px.z_max = px.z_max.max(t);

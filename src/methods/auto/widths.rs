@@ -1,7 +1,7 @@
 //! `auto`'s per-pixel filter widths (methods.md §5.2): the AAF papers' widths at the mu the
 //! pixel's samples reach, in pixels.
 use super::options::AutoOptions;
-use super::sample::PixelSums;
+use super::sample::{IndirectSums, PixelSums};
 use crate::methods::aaf_indirect::glossy_model;
 use crate::methods::aaf_indirect::params::{self as indirect, omega_h_glossy, Reflectors};
 use crate::methods::aaf_shadows::params::{self as shadows, PixelGeometry};
@@ -33,7 +33,7 @@ impl Widths {
     }
 
     /// Recomputes each pixel's reflector distances from its neighbours on the same object.
-    pub fn update_reflectors(&mut self, sums: &[PixelSums], opts: &AutoOptions) {
+    pub fn update_reflectors(&mut self, sums: &[IndirectSums], opts: &AutoOptions) {
         let g = &self.gbuffer;
         self.reflectors = neighbourhood_reflectors(g.width as usize, g.height as usize, opts.reflector_radius, &|p| {
             let (c, s) = (&g.pixels[p], &sums[p]);
@@ -72,7 +72,7 @@ impl Widths {
 
     /// The screen width of the diffuse or glossy indirect light at each pixel: Mehta 2013
     /// Eqs. 15-16 at the mu of the pixel's samples; 0 where no reflector was seen.
-    pub fn indirect(&self, ctx: &PassContext, glossy: bool, sums: &[PixelSums], opts: &AutoOptions) -> Vec<f32> {
+    pub fn indirect(&self, ctx: &PassContext, glossy: bool, indirect: &[IndirectSums], opts: &AutoOptions) -> Vec<f32> {
         let ind = &ctx.job.indirect;
         let c = &ind.constants;
         let z_floor = c.z_min_fraction * ctx.scene.max_extent() as f64;
@@ -91,7 +91,7 @@ impl Widths {
                 };
                 let z_min = (z_min as f64).max(z_floor);
                 let r = Reflectors { z_min, z_max: (z_max as f64).max(z_min), omega_h, d };
-                let n = if glossy { sums[p].glossy.n } else { sums[p].diffuse.n };
+                let n = if glossy { indirect[p].glossy.n } else { indirect[p].diffuse.n };
                 let mu = opts.mu(ind.mu0, n as f64);
                 let beta = indirect::filter_width(&r, c, mu) * ind.kernel_scale * opts.indirect_width_scale;
                 finite_px(beta / d, opts.max_sigma(n as f64))
