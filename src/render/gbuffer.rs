@@ -105,7 +105,7 @@ impl GBuffer {
     /// "accounts for foreshortening"; the authors' code leaves it out).
     pub fn pixel_sizes(&self, camera: Vec3, foreshortening: bool) -> Vec<f64> {
         self.pixels
-            .iter()
+            .par_iter()
             .map(|p| {
                 if !p.is_valid() {
                     return 0.0;

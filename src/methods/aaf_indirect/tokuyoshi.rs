@@ -9,7 +9,7 @@ use crate::methods::lobe_aware::options::{LobeAwareOptions, LobeShape};
 use crate::methods::lobe_aware::upsample::{upsample, weight_sums, Grid, UpsampleWeights};
 use crate::methods::mode::FilterMode;
 use crate::pipeline::strategy::PassContext;
-use crate::render::gbuffer::GBuffer;
+use crate::render::gbuffer::{GBuffer, GSample};
 use rayon::prelude::*;
 
 /// Tokuyoshi's guides from the G-buffer: each pixel's diffuse lobe about its normal, or with
@@ -18,25 +18,25 @@ use rayon::prelude::*;
 /// light's pixel at its edge has some). Shared by the lobe- and normal-aware modes and `auto`.
 /// With `LobeShape::Asg` glossy pixels also carry their lobe as an ASG (Eq. 13).
 pub(crate) fn guides(ctx: &PassContext, g: &GBuffer, glossy: bool, o: &LobeAwareOptions, kappa: f64) -> Vec<Guide> {
-    let camera = ctx.view.position.as_dvec3();
-    g.pixels
-        .par_iter()
-        .map(|s| {
-            let n = s.normal.as_dvec3();
-            let (lobe, asg) = if glossy {
-                let psi = (camera - s.position.as_dvec3()).normalize_or_zero();
-                let (model, exponent) = (glossy_model(ctx.scene, s.material), s.exponent as f64);
-                let asg = (o.lobe.shape == LobeShape::Asg)
-                    .then(|| lobe::specular_asg(model, exponent, n, psi, &o.lobe).smoothed(kappa))
-                    .and_then(AsgLobe::new);
-                (lobe::specular(model, exponent, n, psi, &o.lobe), asg)
-            } else {
-                (lobe::diffuse(n), None)
-            };
-            let (valid, depth) = (s.is_valid(), s.depth as f64);
-            Guide { valid, depth, normal: n, lobe: lobe.smoothed(kappa), asg, sigma_px: 0.0 }
-        })
-        .collect()
+    g.pixels.par_iter().map(|s| guide(ctx, s, glossy, o, kappa)).collect()
+}
+
+/// One pixel's guide (`guides`), for callers that keep another form of it and need not hold
+/// the image of `Guide`s.
+pub(crate) fn guide(ctx: &PassContext, s: &GSample, glossy: bool, o: &LobeAwareOptions, kappa: f64) -> Guide {
+    let n = s.normal.as_dvec3();
+    let (lobe, asg) = if glossy {
+        let psi = (ctx.view.position.as_dvec3() - s.position.as_dvec3()).normalize_or_zero();
+        let (model, exponent) = (glossy_model(ctx.scene, s.material), s.exponent as f64);
+        let asg = (o.lobe.shape == LobeShape::Asg)
+            .then(|| lobe::specular_asg(model, exponent, n, psi, &o.lobe).smoothed(kappa))
+            .and_then(AsgLobe::new);
+        (lobe::specular(model, exponent, n, psi, &o.lobe), asg)
+    } else {
+        (lobe::diffuse(n), None)
+    };
+    let (valid, depth) = (s.is_valid(), s.depth as f64);
+    Guide { valid, depth, normal: n, lobe: lobe.smoothed(kappa), asg, sigma_px: 0.0 }
 }
 
 /// Joint upsampling while it lasts (Tokuyoshi Sec. 5, Fig. 16): which pixels trace indirect

@@ -132,7 +132,8 @@ pub struct AutoStrategy {
     /// Tokuyoshi's guides from the G-buffer: diffuse lobes and specular lobes.
     diffuse_guides: Vec<PackedGuide>,
     glossy_guides: Vec<PackedGuide>,
-    /// Pixels within 2 px of a change of the surface normal (`scales::creases`).
+    /// Pixels within 2 px of a change of the surface normal (`scales::creases`); empty in
+    /// direct-light renders.
     creases: Vec<bool>,
     widths: Option<Widths>,
     /// Each light's visibility filter width at every pixel, as the last pass left them.
@@ -192,18 +193,24 @@ impl AutoStrategy {
         // (`trace`) in a scene with no rectangular light too.
         self.light_sums = filled(n * self.lights.len().max(1), LightSums::default());
         let t = Instant::now();
-        // Emitters neither feed nor are filtered.
-        let packed = |guides: Vec<Guide>| -> Vec<PackedGuide> {
-            (guides.par_iter().zip(&g.pixels))
-                .map(|(guide, s)| PackedGuide::new(&Guide { valid: guide.valid && !s.emitter, ..*guide }))
+        // Emitters neither feed nor are filtered. Each pixel's guide packed as it is made.
+        let kappa = ctx.job.lobe.kappa(ctx.job.bounces);
+        let packed = |glossy: bool| -> Vec<PackedGuide> {
+            (g.pixels.par_iter())
+                .map(|s| {
+                    let guide = tokuyoshi::guide(ctx, s, glossy, &ctx.job.lobe, kappa);
+                    PackedGuide::new(&Guide { valid: guide.valid && !s.emitter, ..guide })
+                })
                 .collect()
         };
-        let kappa = ctx.job.lobe.kappa(ctx.job.bounces);
-        self.diffuse_guides = packed(tokuyoshi::guides(ctx, &g, false, &ctx.job.lobe, kappa));
+        self.diffuse_guides = packed(false);
         if self.glossy {
-            self.glossy_guides = packed(tokuyoshi::guides(ctx, &g, true, &ctx.job.lobe, kappa));
+            self.glossy_guides = packed(true);
         }
-        self.creases = scales::creases(&self.diffuse_guides, self.width, 2);
+        // The narrow scale that reads them filters indirect light alone.
+        if ctx.job.bounces > 0 {
+            self.creases = scales::creases(&self.diffuse_guides, self.width, 2);
+        }
         self.widths = Some(Widths::new(ctx, &g));
         tracing::debug!(seconds = t.elapsed().as_secs_f64(), "auto: guides and pixel sizes");
         self.method_seconds += t.elapsed().as_secs_f64();
@@ -386,7 +393,7 @@ impl AutoStrategy {
         };
         // The narrow scale starts at `narrow_from_spp`, and earlier at creases.
         let (from, crease_from) = (self.opts.narrow_from_spp, self.opts.narrow_crease_from_spp);
-        let from_at = |p: usize| if self.creases[p] { from.min(crease_from) } else { from };
+        let from_at = |p: usize| if self.creases.get(p) == Some(&true) { from.min(crease_from) } else { from };
         let two_scales = self.opts.narrow_scale > 0.0
             && !parts.is_empty()
             && (self.sums.par_iter().enumerate()).any(|(p, s)| s.x_n >= from_at(p));
@@ -537,15 +544,18 @@ impl Strategy for AutoStrategy {
         // The analysis samples just added move the slopes and reflector distances.
         if before < self.opts.analysis_spp {
             self.update_slopes(ctx.job.aaf.fill_radius as usize);
+            tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: slopes");
             // Reflector distances set the indirect widths alone.
             let (indirect, opts) = (&self.indirect, &self.opts);
             if let Some(w) = self.widths.as_mut().filter(|_| !indirect.is_empty()) {
                 w.update_reflectors(indirect, opts);
             }
+            tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: reflectors");
         }
         // The visibility widths: the next pass's penumbra marks read them, this pass's frame
         // (if composed) filters with them.
         let shadow_widths = self.shadow_widths(ctx);
+        tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: visibility widths");
         self.mark_narrow_penumbrae(&shadow_widths);
         self.shadow_widths = shadow_widths;
         tracing::debug!(pass = ctx.pass, seconds = t.elapsed().as_secs_f64(), "auto: analysis");
