@@ -347,6 +347,7 @@ impl AutoStrategy {
     fn compose(&self, ctx: &PassContext, shadow_widths: &[Vec<f32>]) -> Frame {
         let n = self.width * self.height;
         let nl = self.lights.len();
+        let t = Instant::now();
         let widths = self.widths.as_ref().expect("set up in pass 0");
         let o = PackedOptions {
             beta: self.opts.beta as f32,
@@ -376,6 +377,7 @@ impl AutoStrategy {
                 vis
             })
             .collect();
+        tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: visibility filtered");
         if nl > 0 {
             max_into(&mut width_px, &shadow_width);
             components.push(ComponentMaps {
@@ -429,6 +431,7 @@ impl AutoStrategy {
         // Compose: rest + sum over lights of r times visibility + K filter(Lbar) + (P - K Lbar)
         // per indirect component (`aaf_indirect`: the correction makes the unfiltered limit
         // exactly the Monte Carlo mean where the reflectance varies over the pixel).
+        tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: indirect light filtered");
         let composed: Vec<Composed> = (0..n)
             .into_par_iter()
             .map(|p| {
@@ -468,6 +471,7 @@ impl AutoStrategy {
         let variance: Vec<f64> = (self.sums.par_iter())
             .map(|s| if from > 0 && s.x_n >= from { s.mean_variance() } else { f64::INFINITY })
             .collect();
+        tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: composed");
         let weights = blend::pooled_weights(self.width, &composed, &variance);
         let (color, unfiltered): (Vec<[f32; 3]>, Vec<[f32; 3]>) = (composed.par_iter().zip(&weights))
             .map(|(&(f, u), &a)| (blend::mix(f, u, a).map(|x| x.max(0.0) as f32), u.map(|x| x.max(0.0) as f32)))
