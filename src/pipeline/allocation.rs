@@ -62,11 +62,10 @@ pub fn whole_counts(want: &[f64], total: f64) -> Vec<u32> {
     let short = (total - sum).max(0.0).min(want.len() as f64) as usize;
     if short > 0 {
         let mut order: Vec<usize> = (0..want.len()).collect();
-        let fractions: Vec<f64> = want.par_iter().map(|&x| x - x.floor()).collect();
-        let frac = |p: usize| fractions[p];
+        let frac: Vec<f64> = want.par_iter().map(|&x| x - x.floor()).collect();
         // A total order (fraction, then index), so the first `short` pixels in it are one set
         // whichever way they are found; a selection finds them without sorting the image.
-        let before = |a: &usize, b: &usize| frac(*b).total_cmp(&frac(*a)).then(a.cmp(b));
+        let before = |a: &usize, b: &usize| frac[*b].total_cmp(&frac[*a]).then(a.cmp(b));
         if short < order.len() {
             order.select_nth_unstable_by(short, before);
         }

@@ -675,7 +675,7 @@ impl ClippedPolygon {
     /// The part above the plane through `x` with normal `n` (Sutherland-Hodgman).
     fn clip_above(&self, x: Vec3, n: Vec3) -> Self {
         let poly = self.as_slice();
-        let h = |p: Vec3| n.as_dvec3().dot((p - x).as_dvec3());
+        let h = |p: Vec3| height_above(x, n, p);
         let mut out = ClippedPolygon { vertices: [Vec3::ZERO; MAX_CLIPPED], len: 0 };
         let mut push = |v: Vec3| {
             // A convex polygon crosses a plane at most twice, so at most one vertex is added;
@@ -700,11 +700,17 @@ impl ClippedPolygon {
     }
 }
 
+/// The signed distance (times |n|) of `p` above the plane through `x` with normal `n`.
+#[inline]
+fn height_above(x: Vec3, n: Vec3, p: Vec3) -> f64 {
+    n.as_dvec3().dot((p - x).as_dvec3())
+}
+
 /// The part of polygon `poly` above the planes through `x` with normals `n` and `ng`.
 fn clip_above_both(x: Vec3, n: Vec3, ng: Vec3, poly: &[Vec3; 4]) -> ClippedPolygon {
     // Most receivers see the whole light: then the clips would copy it unchanged (the same
     // signed distances decide, so the result is the same bit for bit).
-    let above = |n: Vec3| poly.iter().all(|&p| n.as_dvec3().dot((p - x).as_dvec3()) > 0.0);
+    let above = |n: Vec3| poly.iter().all(|&p| height_above(x, n, p) > 0.0);
     if above(n) && above(ng) {
         return ClippedPolygon::new(poly);
     }
