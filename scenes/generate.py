@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the built-in scenes (cornell, grids, curved, cornell-glossy, interior, glossy-plates, sky-spheres) as canonical protobuf JSON
+"""Writes the built-in scenes (cornell, grids, curved, cornell-glossy, cornell-polished, interior, glossy-plates, sky-spheres) as canonical protobuf JSON
 of wedge.v1.Scene. Run from anywhere: `python3 scenes/generate.py`. The JSON files are
 committed and compiled into the binary; this script is how they were made."""
 import json
@@ -100,6 +100,25 @@ def cornell_glossy():
         "lights": [{"point": {"position": v(278, 500, 279.6), "intensity": rgb(190000, 150000, 110000)}}],
         "settings": {"bounces": 2},
     }
+
+
+def cornell_polished():
+    # `cornell-glossy` with high-frequency lobes: a polished floor (Blinn-Phong m = 3000), a
+    # near-mirror ball (Phong m = 5000) and a glossy pillar (m = 800) reflecting the lit room,
+    # the setting of Tokuyoshi 2015's Fig. 14(b), where normal-aware weights blur reflections
+    # that lobe-aware weights keep. The point light's own glints are noise-free, so the
+    # reflections' error is the indirect light's, which the filters act on.
+    base = cornell_glossy()
+    materials = [m for m in base["materials"] if "glossy" not in m] + [
+        glossy("floor_polished", (0.25, 0.22, 0.2), (0.55, 0.55, 0.55), 3000),
+        glossy("blue_mirror", (0.05, 0.07, 0.15), (0.7, 0.7, 0.7), 5000, "GLOSSY_MODEL_PHONG"),
+        glossy("gold_gloss", (0.3, 0.22, 0.07), (0.55, 0.45, 0.22), 800),
+        glossy("white_phong", (0.45, 0.45, 0.45), (0.3, 0.3, 0.3), 16, "GLOSSY_MODEL_PHONG")]
+    polished = {"floor": "floor_polished", "ball": "blue_mirror"}
+    shapes = [dict(s, material=polished.get(s["name"], s["material"])) for s in base["shapes"]]
+    return dict(base, materials=materials, shapes=shapes, settings={"bounces": 1},
+                description="Cornell box with a polished floor and objects (Blinn-Phong and Phong m = 800-5000) "
+                            "under a point light (Tokuyoshi 2015 Fig. 14(b): high-frequency lobes)")
 
 
 def interior():
@@ -347,10 +366,10 @@ def three_sigma(make):
 
 if __name__ == "__main__":
     for name, make in [("cornell", cornell), ("grids", grids), ("curved", curved),
-                       ("cornell-glossy", cornell_glossy), ("interior", interior),
+                       ("cornell-glossy", cornell_glossy), ("cornell-polished", cornell_polished), ("interior", interior),
                        ("grids-3sigma", three_sigma(grids)), ("curved-3sigma", three_sigma(curved)),
                        ("glossy-plates", glossy_plates), ("sky-spheres", sky_spheres)]:
         with open(os.path.join(HERE, name + ".json"), "w") as f:
-            compact = name in ("curved", "cornell-glossy", "interior", "curved-3sigma")
+            compact = name in ("curved", "cornell-glossy", "cornell-polished", "interior", "curved-3sigma")
             json.dump(make(), f, separators=(",", ":") if compact else (",", ": "), indent=None if compact else 1)
             f.write("\n")
