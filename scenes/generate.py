@@ -106,8 +106,8 @@ def cornell_polished():
     # `cornell-glossy` with high-frequency lobes: a polished floor (Blinn-Phong m = 3000), a
     # near-mirror ball (Phong m = 5000) and a glossy pillar (m = 800) reflecting the lit room,
     # the setting of Tokuyoshi 2015's Fig. 14(b), where normal-aware weights blur reflections
-    # that lobe-aware weights keep. The point light's own glints are noise-free, so the
-    # reflections' error is the indirect light's, which the filters act on.
+    # that lobe-aware weights keep. The reflections of the point light itself are direct light,
+    # which neither weight filters; the benches leave those pixels out (`--exclude-above 1`).
     base = cornell_glossy()
     materials = [m for m in base["materials"] if "glossy" not in m] + [
         glossy("floor_polished", (0.25, 0.22, 0.2), (0.55, 0.55, 0.55), 3000),
@@ -117,7 +117,7 @@ def cornell_polished():
     polished = {"floor": "floor_polished", "ball": "blue_mirror"}
     shapes = [dict(s, material=polished.get(s["name"], s["material"])) for s in base["shapes"]]
     return dict(base, materials=materials, shapes=shapes, settings={"bounces": 1},
-                description="Cornell box with a polished floor and objects (Blinn-Phong and Phong m = 800-5000) "
+                description="Cornell box with a polished floor, ball and pillar (Blinn-Phong and Phong m = 800-5000) "
                             "under a point light (Tokuyoshi 2015 Fig. 14(b): high-frequency lobes)")
 
 

@@ -155,8 +155,9 @@ pub fn prepare_compiled(
     let desc = crate::scene::camera("scene.camera", &header.camera, &scene_limits(limits))
         .map_err(|e| name_override(e, req))?;
     let view = compiled.view(&desc);
-    // The AAF family keeps running sums per pixel and area light (~150 bytes each): bound the
-    // product like the image size, so one request cannot exhaust the server's memory.
+    // The AAF family keeps running sums per pixel and per area light (BENCHMARKS.md, "Server
+    // memory per request", measures what a render holds per pixel): bound the product like the
+    // image size, so one request cannot exhaust the server's memory.
     let area_lights =
         compiled.lights.iter().filter(|l| matches!(l, crate::render::light::Light::Rect(_))).count() as u64;
     let pixels = view.width as u64 * view.height as u64;
