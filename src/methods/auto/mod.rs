@@ -404,7 +404,7 @@ impl AutoStrategy {
         let indirect: Vec<IndirectPart> = parts
             .iter()
             .map(|&glossy| {
-                let at = |p: usize| if glossy { &self.indirect[p].glossy } else { &self.indirect[p].diffuse };
+                let at = |p: usize| self.indirect[p].component(glossy);
                 let mut light: Vec<[f32; 3]> =
                     (0..n).into_par_iter().map(|p| mean(at(p).light, at(p).surface).map(|x| x as f32)).collect();
                 let sigma = widths.indirect(ctx, glossy, &self.indirect, &self.opts);
@@ -448,7 +448,7 @@ impl AutoStrategy {
                 }
                 let mut narrow = color;
                 for IndirectPart { glossy, light, narrow: narrow_light } in &indirect {
-                    let cs = if *glossy { &self.indirect[p].glossy } else { &self.indirect[p].diffuse };
+                    let cs = self.indirect[p].component(*glossy);
                     let (k, raw, prod) =
                         (mean(cs.reflectance, cs.n), mean(cs.light, cs.surface), mean(cs.product, cs.n));
                     let narrow_light = narrow_light.as_ref().unwrap_or(light);

@@ -72,6 +72,17 @@ pub(super) struct IndirectSums {
     pub z_max: f32,
 }
 
+impl IndirectSums {
+    /// The sums of the glossy or of the diffuse component.
+    pub fn component(&self, glossy: bool) -> &ComponentSums {
+        if glossy {
+            &self.glossy
+        } else {
+            &self.diffuse
+        }
+    }
+}
+
 impl Default for IndirectSums {
     fn default() -> Self {
         IndirectSums {

@@ -91,7 +91,7 @@ impl Widths {
                 };
                 let z_min = (z_min as f64).max(z_floor);
                 let r = Reflectors { z_min, z_max: (z_max as f64).max(z_min), omega_h, d };
-                let n = if glossy { indirect[p].glossy.n } else { indirect[p].diffuse.n };
+                let n = indirect[p].component(glossy).n;
                 let mu = opts.mu(ind.mu0, n as f64);
                 let beta = indirect::filter_width(&r, c, mu) * ind.kernel_scale * opts.indirect_width_scale;
                 finite_px(beta / d, opts.max_sigma(n as f64))
