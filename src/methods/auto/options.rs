@@ -138,6 +138,38 @@ impl AutoOptions {
     pub fn max_sigma(&self, spp: f64) -> f64 {
         self.max_sigma_px / self.growth(spp)
     }
+
+    /// `growth` at every whole count up to `max_spp` (at most `Growths::TABLE` entries), for
+    /// the per-pixel widths: a `powf` per pixel and width costs more than the width's own
+    /// arithmetic, and the counts of an image take few values.
+    pub fn growths(&self, max_spp: u32) -> Growths<'_> {
+        let table = (0..=max_spp.min(Growths::TABLE)).map(|n| self.growth(n as f64)).collect();
+        Growths { opts: self, table }
+    }
+}
+
+/// `AutoOptions::growth` by whole sample count, tabulated (`AutoOptions::growths`).
+pub struct Growths<'a> {
+    opts: &'a AutoOptions,
+    table: Vec<f64>,
+}
+
+impl Growths<'_> {
+    const TABLE: u32 = 1 << 16;
+
+    fn at(&self, spp: u32) -> f64 {
+        self.table.get(spp as usize).copied().unwrap_or_else(|| self.opts.growth(spp as f64))
+    }
+
+    /// `AutoOptions::mu` at `spp` samples.
+    pub fn mu(&self, mu0: f64, spp: u32) -> f64 {
+        mu0 * self.at(spp)
+    }
+
+    /// `AutoOptions::max_sigma` at `spp` samples.
+    pub fn max_sigma(&self, spp: u32) -> f64 {
+        self.opts.max_sigma_px / self.at(spp)
+    }
 }
 
 impl Settable for AutoOptions {

@@ -279,6 +279,20 @@ fn mu_grows_as_the_sixth_root_of_the_samples() {
     assert_eq!(o.mu(1.0, 0.0), o.mu(1.0, 1.0));
 }
 
+/// The tabulated growth the widths use gives the same mu and cap, bit for bit, inside its
+/// table and past it (counts beyond the image's maximum, or the table's size).
+#[test]
+fn tabulated_growth_equals_the_direct_one() {
+    let o = super::AutoOptions::default();
+    for max in [0u32, 5, 300] {
+        let g = o.growths(max);
+        for n in [0u32, 1, 2, 5, 17, 300, 301, 70_000, 1 << 20] {
+            assert_eq!(g.mu(0.9, n), o.mu(0.9, n as f64), "max {max}, n {n}");
+            assert_eq!(g.max_sigma(n), o.max_sigma(n as f64), "max {max}, n {n}");
+        }
+    }
+}
+
 /// The reflector distances of the separable box sums equal a visit of every window, on a grid
 /// of several objects, with pixels that saw nothing and invalid ones, at several radii.
 #[test]

@@ -54,6 +54,7 @@ impl Widths {
         opts: &AutoOptions,
     ) -> Vec<f32> {
         let aaf = &ctx.job.aaf;
+        let growths = opts.growths(sums.par_iter().map(|s| s.taken).max().unwrap_or(0));
         (0..self.d_shadow.len())
             .into_par_iter()
             .map(|p| {
@@ -62,10 +63,10 @@ impl Widths {
                 if !(d > 0.0) {
                     return 0.0;
                 }
-                let mu = opts.mu(aaf.mu0 * light.mu_scale, sums[p].taken as f64);
+                let mu = growths.mu(aaf.mu0 * light.mu_scale, sums[p].taken);
                 let geometry = PixelGeometry { s1, s2, sigma: light.sigma, d };
                 let beta = shadows::filter_width(&geometry, &aaf.constants, mu) * opts.shadow_width_scale;
-                finite_px(beta / d, opts.max_sigma(sums[p].taken as f64))
+                finite_px(beta / d, growths.max_sigma(sums[p].taken))
             })
             .collect()
     }
@@ -76,6 +77,7 @@ impl Widths {
         let ind = &ctx.job.indirect;
         let c = &ind.constants;
         let z_floor = c.z_min_fraction * ctx.scene.max_extent() as f64;
+        let growths = opts.growths(indirect.par_iter().map(|s| s.component(glossy).n).max().unwrap_or(0));
         (0..self.d_indirect.len())
             .into_par_iter()
             .map(|p| {
@@ -92,9 +94,9 @@ impl Widths {
                 let z_min = (z_min as f64).max(z_floor);
                 let r = Reflectors { z_min, z_max: (z_max as f64).max(z_min), omega_h, d };
                 let n = indirect[p].component(glossy).n;
-                let mu = opts.mu(ind.mu0, n as f64);
+                let mu = growths.mu(ind.mu0, n);
                 let beta = indirect::filter_width(&r, c, mu) * ind.kernel_scale * opts.indirect_width_scale;
-                finite_px(beta / d, opts.max_sigma(n as f64))
+                finite_px(beta / d, growths.max_sigma(n))
             })
             .collect()
     }

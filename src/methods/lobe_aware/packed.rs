@@ -159,38 +159,51 @@ struct Row {
 }
 
 impl Row {
-    /// Loads `guides` and `values` after `pad` invalid pixels, with `pad + LANES` after.
+    /// Loads `guides` and `values` after `pad` invalid pixels, with `pad + LANES` after. Only the
+    /// padding is filled: the row's own entries are each written once.
     fn load(&mut self, guides: &[PackedGuide], values: &[[f32; 3]], power: Option<&[f32]>, pad: usize) {
-        let n = guides.len() + 2 * pad + LANES;
-        let fill = |v: &mut Vec<f32>, x: f32| {
-            v.clear();
+        let (len, n) = (guides.len(), guides.len() + 2 * pad + LANES);
+        let pad_with = |v: &mut Vec<f32>, x: f32| {
             v.resize(n, x);
+            v.truncate(n);
+            v[..pad].fill(x);
+            v[pad + len..].fill(x);
         };
         for c in 0..3 {
-            fill(&mut self.axis[c], 0.0);
-            fill(&mut self.value[c], 0.0);
+            pad_with(&mut self.axis[c], 0.0);
+            pad_with(&mut self.value[c], 0.0);
         }
-        fill(&mut self.sharpness, 1.0);
-        fill(&mut self.inverse, 1.0);
-        fill(&mut self.depth, 0.0);
-        fill(&mut self.valid, 0.0);
+        pad_with(&mut self.sharpness, 1.0);
+        pad_with(&mut self.inverse, 1.0);
+        pad_with(&mut self.depth, 0.0);
+        pad_with(&mut self.valid, 0.0);
         // Only a gather asked for its noise power reads it.
         if let Some(p) = power {
-            fill(&mut self.power, 1.0);
-            self.power[pad..pad + p.len()].copy_from_slice(p);
+            pad_with(&mut self.power, 1.0);
+            self.power[pad..pad + len].copy_from_slice(p);
         }
-        let first = guides.iter().find(|g| g.is_valid()).map_or(1.0, |g| g.sharpness);
-        self.uniform = guides.iter().all(|g| !g.is_valid() || g.sharpness == first);
+        let mut first = None;
+        self.uniform = true;
+        let [ax, ay, az] = &mut self.axis;
+        let [vx, vy, vz] = &mut self.value;
+        fn body(v: &mut [f32], pad: usize, len: usize) -> &mut [f32] {
+            &mut v[pad..pad + len]
+        }
+        let (ax, ay, az) = (body(ax, pad, len), body(ay, pad, len), body(az, pad, len));
+        let (vx, vy, vz) = (body(vx, pad, len), body(vy, pad, len), body(vz, pad, len));
+        let (sharpness, inverse) = (&mut self.sharpness[pad..pad + len], &mut self.inverse[pad..pad + len]);
+        let (depth, valid) = (&mut self.depth[pad..pad + len], &mut self.valid[pad..pad + len]);
         for (i, (g, v)) in guides.iter().zip(values).enumerate() {
-            let k = pad + i;
-            for ((axis, a), (value, x)) in self.axis.iter_mut().zip(g.axis).zip(self.value.iter_mut().zip(*v)) {
-                axis[k] = a;
-                value[k] = x;
+            [ax[i], ay[i], az[i]] = g.axis;
+            [vx[i], vy[i], vz[i]] = *v;
+            sharpness[i] = g.sharpness;
+            inverse[i] = 1.0 / g.sharpness;
+            depth[i] = g.depth;
+            valid[i] = g.valid;
+            if g.is_valid() {
+                let s = *first.get_or_insert(g.sharpness);
+                self.uniform &= g.sharpness == s;
             }
-            self.sharpness[k] = g.sharpness;
-            self.inverse[k] = 1.0 / g.sharpness;
-            self.depth[k] = g.depth;
-            self.valid[k] = g.valid;
         }
     }
 }
