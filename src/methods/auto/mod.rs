@@ -49,7 +49,7 @@ pub use options::AutoOptions;
 use super::aaf_indirect::tokuyoshi;
 use super::aaf_shadows::{fill_slopes, ratio, shadow_light, FillGrid, ShadowLight, Slopes};
 use super::lobe_aware::filter::Guide;
-use super::lobe_aware::packed::{gather, gather_with_power, PackedGuide, PackedOptions};
+use super::lobe_aware::packed::{gather_where, gather_with_power_where, PackedGuide, PackedOptions};
 use super::mode::FilterMode;
 use super::parts;
 use super::uniform::Uniform;
@@ -357,9 +357,8 @@ impl AutoStrategy {
         };
         let mut width_px = vec![0.0f32; n];
         let mut components = Vec::new();
-        let invalid_unless = |guides: &[PackedGuide], keep: &(dyn Fn(usize) -> bool + Sync)| -> Vec<PackedGuide> {
-            guides.par_iter().enumerate().map(|(p, g)| if keep(p) { *g } else { PackedGuide::INVALID }).collect()
-        };
+        let feeding =
+            |keep: &(dyn Fn(usize) -> bool + Sync)| -> Vec<bool> { (0..n).into_par_iter().map(keep).collect() };
         let max_into = |acc: &mut [f32], w: &[f32]| acc.iter_mut().zip(w).for_each(|(a, b)| *a = a.max(*b));
         let diffuse_guides = straddling_guides(&self.diffuse_guides, &self.sums);
         // Soft shadows: each light's visibility, filtered.
@@ -370,9 +369,9 @@ impl AutoStrategy {
                 let raw: Vec<[f32; 3]> =
                     (0..n).into_par_iter().map(|p| ratio(at(p).a, at(p).b).map(|x| x as f32)).collect();
                 let sigma = &shadow_widths[l];
-                let guides = invalid_unless(&diffuse_guides, &|p| at(p).b.iter().any(|&b| b > 0.0));
+                let feeds = feeding(&|p| at(p).b.iter().any(|&b| b > 0.0));
                 let mut vis = raw;
-                gather(&guides, sigma, self.width, &mut vis, &o);
+                gather_where(&diffuse_guides, &feeds, sigma, self.width, &mut vis, &o);
                 max_into(&mut shadow_width, sigma);
                 vis
             })
@@ -409,16 +408,17 @@ impl AutoStrategy {
                     (0..n).into_par_iter().map(|p| mean(at(p).light, at(p).surface).map(|x| x as f32)).collect();
                 let sigma = widths.indirect(ctx, glossy, &self.indirect, &self.opts);
                 let base = if glossy { &self.glossy_guides } else { &diffuse_guides };
-                let guides = invalid_unless(base, &|p| at(p).surface > 0);
+                let feeds = feeding(&|p| at(p).surface > 0);
                 let narrow = (two_scales && !glossy).then(|| {
                     let scale = self.opts.narrow_scale as f32;
                     narrow_sigma.iter_mut().zip(&sigma).for_each(|(ns, s)| *ns = s * scale);
                     let mut narrow = light.clone();
                     let narrow_o = PackedOptions { linear: self.opts.narrow_linear, ..o };
-                    narrow_power = gather_with_power(&guides, &narrow_sigma, self.width, &mut narrow, &narrow_o);
+                    narrow_power =
+                        gather_with_power_where(base, Some(&feeds), &narrow_sigma, self.width, &mut narrow, &narrow_o);
                     narrow
                 });
-                gather(&guides, &sigma, self.width, &mut light, &o);
+                gather_where(base, &feeds, &sigma, self.width, &mut light, &o);
                 max_into(&mut width_px, &sigma);
                 components.push(ComponentMaps {
                     name: if glossy { "glossy" } else { "diffuse" }.to_string(),

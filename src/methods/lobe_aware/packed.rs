@@ -85,7 +85,21 @@ fn ln_lobe(s: (f32, f32), inv: (f32, f32), dot: f32, beta: f32) -> f32 {
 /// that both read memory in order. Rows run in parallel; the result does not depend on the
 /// thread count.
 pub fn gather(guides: &[PackedGuide], sigma_px: &[f32], width: usize, values: &mut [[f32; 3]], o: &PackedOptions) {
-    gather_both(guides, sigma_px, width, values, o, false);
+    gather_both(guides, None, sigma_px, width, values, o, false);
+}
+
+/// `gather` with each pixel valid only where its guide is and `feeds` holds too: the same
+/// result as `gather` over guides made invalid where `feeds` is false, without that copy of
+/// the guides (a frame filters several parts, each feeding from its own pixels).
+pub fn gather_where(
+    guides: &[PackedGuide],
+    feeds: &[bool],
+    sigma_px: &[f32],
+    width: usize,
+    values: &mut [[f32; 3]],
+    o: &PackedOptions,
+) {
+    gather_both(guides, Some(feeds), sigma_px, width, values, o, false);
 }
 
 /// `gather`, also returning each pixel's noise power: the variance of its filtered value for
@@ -100,11 +114,25 @@ pub fn gather_with_power(
     values: &mut [[f32; 3]],
     o: &PackedOptions,
 ) -> Vec<f32> {
-    gather_both(guides, sigma_px, width, values, o, true).unwrap_or_else(|| vec![1.0; values.len()])
+    gather_with_power_where(guides, None, sigma_px, width, values, o)
+}
+
+/// `gather_with_power` with the pixels that feed limited as in `gather_where` (None: every
+/// valid one).
+pub fn gather_with_power_where(
+    guides: &[PackedGuide],
+    feeds: Option<&[bool]>,
+    sigma_px: &[f32],
+    width: usize,
+    values: &mut [[f32; 3]],
+    o: &PackedOptions,
+) -> Vec<f32> {
+    gather_both(guides, feeds, sigma_px, width, values, o, true).unwrap_or_else(|| vec![1.0; values.len()])
 }
 
 fn gather_both(
     guides: &[PackedGuide],
+    feeds: Option<&[bool]>,
     sigma_px: &[f32],
     width: usize,
     values: &mut [[f32; 3]],
@@ -112,16 +140,19 @@ fn gather_both(
     power: bool,
 ) -> Option<Vec<f32>> {
     assert!(guides.len() == values.len() && sigma_px.len() == values.len(), "one guide and width per value");
+    assert!(feeds.is_none_or(|f| f.len() == values.len()), "one feed flag per value");
     if width == 0 || values.is_empty() {
         return None;
     }
     let height = values.len() / width;
     let ones = power.then(|| vec![1.0f32; values.len()]);
-    let (across, power_across) = rows(guides, sigma_px, width, values, ones.as_deref(), o);
+    let (across, power_across) = rows(guides, feeds, sigma_px, width, values, ones.as_deref(), o);
     let (guides_t, sigma_t, across_t) =
         (transpose(guides, width, height), transpose(sigma_px, width, height), transpose(&across, width, height));
+    let feeds_t = feeds.map(|f| transpose(f, width, height));
     let power_t = power_across.map(|p| transpose(&p, width, height));
-    let (down_t, power_down_t) = rows(&guides_t, &sigma_t, height, &across_t, power_t.as_deref(), o);
+    let (down_t, power_down_t) =
+        rows(&guides_t, feeds_t.as_deref(), &sigma_t, height, &across_t, power_t.as_deref(), o);
     values.copy_from_slice(&transpose(&down_t, height, width));
     power_down_t.map(|p| transpose(&p, height, width))
 }
@@ -159,9 +190,17 @@ struct Row {
 }
 
 impl Row {
-    /// Loads `guides` and `values` after `pad` invalid pixels, with `pad + LANES` after. Only the
-    /// padding is filled: the row's own entries are each written once.
-    fn load(&mut self, guides: &[PackedGuide], values: &[[f32; 3]], power: Option<&[f32]>, pad: usize) {
+    /// Loads `guides` and `values` after `pad` invalid pixels, with `pad + LANES` after, a pixel
+    /// valid where its guide is and `feeds` (if given) holds. Only the padding is filled: the
+    /// row's own entries are each written once.
+    fn load(
+        &mut self,
+        guides: &[PackedGuide],
+        feeds: Option<&[bool]>,
+        values: &[[f32; 3]],
+        power: Option<&[f32]>,
+        pad: usize,
+    ) {
         let (len, n) = (guides.len(), guides.len() + 2 * pad + LANES);
         let pad_with = |v: &mut Vec<f32>, x: f32| {
             v.resize(n, x);
@@ -199,8 +238,9 @@ impl Row {
             sharpness[i] = g.sharpness;
             inverse[i] = 1.0 / g.sharpness;
             depth[i] = g.depth;
-            valid[i] = g.valid;
-            if g.is_valid() {
+            let feeds = feeds.is_none_or(|f| f[i]);
+            valid[i] = if feeds { g.valid } else { 0.0 };
+            if feeds && g.is_valid() {
                 let s = *first.get_or_insert(g.sharpness);
                 self.uniform &= g.sharpness == s;
             }
@@ -211,6 +251,7 @@ impl Row {
 /// One 1-D gather along every row; with `power` (the inputs' noise powers), also the outputs'.
 fn rows(
     guides: &[PackedGuide],
+    feeds: Option<&[bool]>,
     sigma_px: &[f32],
     width: usize,
     values: &[[f32; 3]],
@@ -230,7 +271,8 @@ fn rows(
         if s_row.iter().all(|&s| !(s > 0.0)) {
             return;
         }
-        row.load(&guides[span.clone()], &values[span.clone()], power.map(|p| &p[span]), pad);
+        let feeds = feeds.map(|f| &f[span.clone()]);
+        row.load(&guides[span.clone()], feeds, &values[span.clone()], power.map(|p| &p[span]), pad);
         let power_row = power.is_some().then_some(power_row);
         #[cfg(target_arch = "x86_64")]
         if avx2 {
@@ -381,8 +423,10 @@ fn gather_block<const UNIFORM: bool, const LINEAR: bool, const POWER: bool>(
             if LINEAR && det > 1e-4 * wsum[l] * s2[l] {
                 let value = [0, 1, 2].map(|c| (s2[l] * sum[c][l] - s1[l] * sdv[c][l]) / det);
                 let power = if POWER {
-                    let (a, b) = (s2[l], s1[l]);
-                    (a * a * pw[0][l] - 2.0 * a * b * pw[1][l] + b * b * pw[2][l]) / (det * det)
+                    // The weights' scale divided out before squaring: det^2 underflows f32 where
+                    // every tap but the centre weighs almost nothing (0 / 0 was NaN).
+                    let (a, b) = (s2[l] / det, s1[l] / det);
+                    a * a * pw[0][l] - 2.0 * a * b * pw[1][l] + b * b * pw[2][l]
                 } else {
                     0.0
                 };
@@ -621,5 +665,32 @@ mod tests {
             v
         };
         assert_eq!(run(1), run(2));
+    }
+
+    /// Limiting the pixels that feed by a mask gives, bit for bit, what the gather gives over
+    /// guides made invalid there (mixed diffuse and glossy lobes, so both weight paths run),
+    /// with and without the linear fit and the noise power.
+    #[test]
+    fn a_feed_mask_equals_invalid_guides() {
+        let mut rng = Rng(11);
+        let (guides, values) = scene(&mut rng);
+        let packed: Vec<PackedGuide> = guides.iter().map(PackedGuide::new).collect();
+        let sigma: Vec<f32> = guides.iter().map(|g| g.sigma_px as f32).collect();
+        let feeds: Vec<bool> = (0..packed.len()).map(|_| rng.f() > 0.2).collect();
+        let masked: Vec<PackedGuide> =
+            packed.iter().zip(&feeds).map(|(g, &f)| if f { *g } else { PackedGuide::INVALID }).collect();
+        let start: Vec<[f32; 3]> = values.iter().map(|v| v.map(|x| x as f32)).collect();
+        for linear in [false, true] {
+            let o = PackedOptions { beta: 20.0, sigma_z2_relative: 0.01, max_radius: 16, linear };
+            let (mut want, mut got) = (start.clone(), start.clone());
+            gather(&masked, &sigma, 40, &mut want, &o);
+            gather_where(&packed, &feeds, &sigma, 40, &mut got, &o);
+            assert_eq!(got, want, "linear {linear}");
+            let (mut want, mut got) = (start.clone(), start.clone());
+            let want_power = gather_with_power(&masked, &sigma, 40, &mut want, &o);
+            let got_power = gather_with_power_where(&packed, Some(&feeds), &sigma, 40, &mut got, &o);
+            assert!(got_power.iter().all(|p| p.is_finite() && *p >= 0.0), "linear {linear}: power not finite");
+            assert_eq!((got, got_power), (want, want_power), "linear {linear}, with power");
+        }
     }
 }
