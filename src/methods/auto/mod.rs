@@ -49,7 +49,7 @@ pub use options::AutoOptions;
 use super::aaf_indirect::tokuyoshi;
 use super::aaf_shadows::{fill_slopes, ratio, shadow_light, FillGrid, ShadowLight, Slopes};
 use super::lobe_aware::filter::Guide;
-use super::lobe_aware::packed::{gather_where, gather_with_power_where, PackedGuide, PackedOptions};
+use super::lobe_aware::packed::{gather_where, gather_with_power, PackedGuide, PackedOptions};
 use super::mode::FilterMode;
 use super::parts;
 use super::uniform::Uniform;
@@ -415,7 +415,7 @@ impl AutoStrategy {
                     let mut narrow = light.clone();
                     let narrow_o = PackedOptions { linear: self.opts.narrow_linear, ..o };
                     narrow_power =
-                        gather_with_power_where(base, Some(&feeds), &narrow_sigma, self.width, &mut narrow, &narrow_o);
+                        gather_with_power(base, Some(&feeds), &narrow_sigma, self.width, &mut narrow, &narrow_o);
                     narrow
                 });
                 gather_where(base, &feeds, &sigma, self.width, &mut light, &o);

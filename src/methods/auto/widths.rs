@@ -54,7 +54,8 @@ impl Widths {
         opts: &AutoOptions,
     ) -> Vec<f32> {
         let aaf = &ctx.job.aaf;
-        let growths = opts.growths(sums.par_iter().map(|s| s.taken).max().unwrap_or(0));
+        // A table no longer than the image (a tiny image at many samples computes fewer).
+        let growths = opts.growths(sums.par_iter().map(|s| s.taken).max().unwrap_or(0).min(sums.len() as u32));
         (0..self.d_shadow.len())
             .into_par_iter()
             .map(|p| {
@@ -77,7 +78,8 @@ impl Widths {
         let ind = &ctx.job.indirect;
         let c = &ind.constants;
         let z_floor = c.z_min_fraction * ctx.scene.max_extent() as f64;
-        let growths = opts.growths(indirect.par_iter().map(|s| s.component(glossy).n).max().unwrap_or(0));
+        let most = indirect.par_iter().map(|s| s.component(glossy).n).max().unwrap_or(0);
+        let growths = opts.growths(most.min(indirect.len() as u32));
         (0..self.d_indirect.len())
             .into_par_iter()
             .map(|p| {

@@ -106,20 +106,9 @@ pub fn gather_where(
 /// inputs of unit variance, independent between pixels (the sum of the squares of the
 /// effective weights with which the two passes combine the inputs; 1 for a pixel that keeps its
 /// value, about 1 / (4 pi sigma^2) for a wide Gaussian over one surface, more where the guides
-/// cut the kernel or the linear fit extrapolates).
+/// cut the kernel or the linear fit extrapolates). `feeds` limits the pixels that feed as in
+/// `gather_where` (None: every valid one).
 pub fn gather_with_power(
-    guides: &[PackedGuide],
-    sigma_px: &[f32],
-    width: usize,
-    values: &mut [[f32; 3]],
-    o: &PackedOptions,
-) -> Vec<f32> {
-    gather_with_power_where(guides, None, sigma_px, width, values, o)
-}
-
-/// `gather_with_power` with the pixels that feed limited as in `gather_where` (None: every
-/// valid one).
-pub fn gather_with_power_where(
     guides: &[PackedGuide],
     feeds: Option<&[bool]>,
     sigma_px: &[f32],
@@ -624,7 +613,7 @@ mod tests {
         for linear in [false, true] {
             let o = PackedOptions { beta: 20.0, sigma_z2_relative: 0.01, max_radius: 16, linear };
             let mut unit = vec![[0.0f32; 3]; w * h];
-            let power = gather_with_power(&guides, &sigma, w, &mut unit, &o);
+            let power = gather_with_power(&guides, None, &sigma, w, &mut unit, &o);
             assert_eq!(power[0], 1.0);
             let trials = 1500;
             let mut second_moment = vec![0.0f64; w * h];
@@ -687,8 +676,8 @@ mod tests {
             gather_where(&packed, &feeds, &sigma, 40, &mut got, &o);
             assert_eq!(got, want, "linear {linear}");
             let (mut want, mut got) = (start.clone(), start.clone());
-            let want_power = gather_with_power(&masked, &sigma, 40, &mut want, &o);
-            let got_power = gather_with_power_where(&packed, Some(&feeds), &sigma, 40, &mut got, &o);
+            let want_power = gather_with_power(&masked, None, &sigma, 40, &mut want, &o);
+            let got_power = gather_with_power(&packed, Some(&feeds), &sigma, 40, &mut got, &o);
             assert!(got_power.iter().all(|p| p.is_finite() && *p >= 0.0), "linear {linear}: power not finite");
             assert_eq!((got, got_power), (want, want_power), "linear {linear}, with power");
         }
