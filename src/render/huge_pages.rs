@@ -37,6 +37,24 @@ pub fn filled<T: Clone + Send + Sync>(n: usize, value: T) -> Vec<T> {
     out
 }
 
+/// The items of `iter` collected in parallel into memory advised to use huge pages (when large
+/// enough): for the large per-pixel arrays a frame builds from scratch.
+pub fn collected<I>(iter: I) -> Vec<I::Item>
+where
+    I: IndexedParallelIterator,
+    I::Item: Send,
+{
+    let n = iter.len();
+    let mut out: Vec<I::Item> = Vec::with_capacity(n);
+    let bytes = n * std::mem::size_of::<I::Item>();
+    if cfg!(target_os = "linux") && bytes >= MIN_BYTES {
+        mark(out.as_ptr() as usize, bytes);
+    }
+    // Writes into the capacity reserved above (rayon reallocates only a smaller vector).
+    iter.collect_into_vec(&mut out);
+    out
+}
+
 #[cfg(target_os = "linux")]
 fn mark(start: usize, bytes: usize) {
     const HUGE: usize = 2 << 20;
@@ -63,6 +81,17 @@ mod tests {
         assert_eq!(super::advise(big.clone()), big);
         let small = vec![1.5f32; 10];
         assert_eq!(super::advise(small.clone()), small);
+    }
+
+    #[test]
+    fn collected_holds_the_items_in_order_in_the_reserved_memory() {
+        use rayon::prelude::*;
+        for n in [0usize, 1, 1000, 3 << 20] {
+            let v = super::collected((0..n).into_par_iter().map(|i| i as u32 * 3));
+            assert_eq!(v.len(), n);
+            assert!(v.iter().enumerate().all(|(i, &x)| x == i as u32 * 3));
+            assert_eq!(v.capacity(), n, "no reallocation");
+        }
     }
 
     #[test]

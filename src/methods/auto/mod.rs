@@ -59,7 +59,7 @@ use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
 use crate::pipeline::strategy::{PassContext, Sampled, Strategy};
 use crate::render::gbuffer::GBuffer;
-use crate::render::huge_pages::filled;
+use crate::render::huge_pages::{collected, filled};
 use crate::render::light::Light;
 use crate::render::sampler::hash_words;
 use rayon::prelude::*;
@@ -136,6 +136,8 @@ pub struct AutoStrategy {
     /// direct-light renders.
     creases: Vec<bool>,
     widths: Option<Widths>,
+    /// Analysis samples were added since the reflector distances were last found.
+    reflectors_stale: bool,
     /// Each light's visibility filter width at every pixel, as the last pass left them.
     shadow_widths: Vec<Vec<f32>>,
     /// Samples per pixel the passes so far asked for.
@@ -174,6 +176,7 @@ impl AutoStrategy {
             glossy_guides: Vec::new(),
             creases: Vec::new(),
             widths: None,
+            reflectors_stale: false,
             shadow_widths: Vec::new(),
             target: 0,
             rays: 0,
@@ -432,49 +435,52 @@ impl AutoStrategy {
         // per indirect component (`aaf_indirect`: the correction makes the unfiltered limit
         // exactly the Monte Carlo mean where the reflectance varies over the pixel).
         tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: indirect light filtered");
-        let composed: Vec<Composed> = (0..n)
-            .into_par_iter()
-            .map(|p| {
-                let s = &self.sums[p];
-                let rest = mean(s.rest, s.taken);
-                let (mut color, mut unfiltered) = (rest, rest);
-                for (l, vis) in visibility.iter().enumerate() {
-                    let ls = &self.light_sums[p * nl + l];
-                    let (r, raw) = (mean(ls.r, ls.r_n), ratio(ls.a, ls.b));
-                    for c in 0..3 {
-                        color[c] += r[c] * vis[p][c] as f64;
-                        unfiltered[c] += r[c] * raw[c];
-                    }
+        let compose_at = |p: usize| {
+            let s = &self.sums[p];
+            let rest = mean(s.rest, s.taken);
+            let (mut color, mut unfiltered) = (rest, rest);
+            for (l, vis) in visibility.iter().enumerate() {
+                let ls = &self.light_sums[p * nl + l];
+                let (r, raw) = (mean(ls.r, ls.r_n), ratio(ls.a, ls.b));
+                for c in 0..3 {
+                    color[c] += r[c] * vis[p][c] as f64;
+                    unfiltered[c] += r[c] * raw[c];
                 }
-                let mut narrow = color;
-                for IndirectPart { glossy, light, narrow: narrow_light } in &indirect {
-                    let cs = self.indirect[p].component(*glossy);
-                    let (k, raw, prod) =
-                        (mean(cs.reflectance, cs.n), mean(cs.light, cs.surface), mean(cs.product, cs.n));
-                    let narrow_light = narrow_light.as_ref().unwrap_or(light);
-                    for c in 0..3 {
-                        color[c] += k[c] * light[p][c] as f64 + (prod[c] - k[c] * raw[c]);
-                        narrow[c] += k[c] * narrow_light[p][c] as f64 + (prod[c] - k[c] * raw[c]);
-                        unfiltered[c] += prod[c];
-                    }
+            }
+            let mut narrow = color;
+            for IndirectPart { glossy, light, narrow: narrow_light } in &indirect {
+                let cs = self.indirect[p].component(*glossy);
+                let (k, raw, prod) = (mean(cs.reflectance, cs.n), mean(cs.light, cs.surface), mean(cs.product, cs.n));
+                let narrow_light = narrow_light.as_ref().unwrap_or(light);
+                for c in 0..3 {
+                    color[c] += k[c] * light[p][c] as f64 + (prod[c] - k[c] * raw[c]);
+                    narrow[c] += k[c] * narrow_light[p][c] as f64 + (prod[c] - k[c] * raw[c]);
+                    unfiltered[c] += prod[c];
                 }
-                Composed { wide: color, narrow, unfiltered }
-            })
-            .collect();
-        let composed = if two_scales {
+            }
+            Composed { wide: color, narrow, unfiltered }
+        };
+        // (frame, unfiltered) per pixel. Without the narrow scale the three-value `Composed`
+        // is never stored: at preview sizes a frame's fresh buffers cost page faults on the order
+        // of the arithmetic.
+        let composed: Vec<([f64; 3], [f64; 3])> = if two_scales {
+            let composed: Vec<Composed> = (0..n).into_par_iter().map(compose_at).collect();
             scales::select(self.width, &composed, &self.sums, &narrow_sigma, &narrow_power, &from_at)
         } else {
-            composed.par_iter().map(|c| (c.wide, c.unfiltered)).collect()
+            collected((0..n).into_par_iter().map(compose_at).map(|c| (c.wide, c.unfiltered)))
         };
-        // Where the filter's bias outgrows the noise it removes (`blend.rs`).
-        let from = self.opts.blend_from_spp;
-        let variance: Vec<f64> = (self.sums.par_iter())
-            .map(|s| if from > 0 && s.x_n >= from { s.mean_variance() } else { f64::INFINITY })
-            .collect();
         tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: composed");
-        let weights = blend::pooled_weights(self.width, &composed, &variance);
-        let (color, unfiltered): (Vec<[f32; 3]>, Vec<[f32; 3]>) = (composed.par_iter().zip(&weights))
-            .map(|(&(f, u), &a)| (blend::mix(f, u, a).map(|x| x.max(0.0) as f32), u.map(|x| x.max(0.0) as f32)))
+        // Where the filter's bias outgrows the noise it removes (`blend.rs`); before any pixel
+        // has `blend_from_spp` samples every weight is 0, and none is computed.
+        let from = self.opts.blend_from_spp;
+        let weights = (from > 0 && self.sums.par_iter().any(|s| s.x_n >= from)).then(|| {
+            let variance: Vec<f64> =
+                (self.sums.par_iter()).map(|s| if s.x_n >= from { s.mean_variance() } else { f64::INFINITY }).collect();
+            blend::pooled_weights(self.width, &composed, &variance)
+        });
+        let weight = |p: usize| weights.as_ref().map_or(0.0, |w| w[p]);
+        let (color, unfiltered): (Vec<[f32; 3]>, Vec<[f32; 3]>) = (composed.par_iter().enumerate())
+            .map(|(p, &(f, u))| (blend::mix(f, u, weight(p)).map(|x| x.max(0.0) as f32), u.map(|x| x.max(0.0) as f32)))
             .unzip();
         let spp: Vec<f32> = self.sums.par_iter().map(|s| s.taken as f32).collect();
         Frame {
@@ -549,12 +555,10 @@ impl Strategy for AutoStrategy {
         if before < self.opts.analysis_spp {
             self.update_slopes(ctx.job.aaf.fill_radius as usize);
             tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: slopes");
-            // Reflector distances set the indirect widths alone.
-            let (indirect, opts) = (&self.indirect, &self.opts);
-            if let Some(w) = self.widths.as_mut().filter(|_| !indirect.is_empty()) {
-                w.update_reflectors(indirect, opts);
-            }
-            tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: reflectors");
+            // Reflector distances set the indirect widths alone, which only a composed frame
+            // reads: they are brought up to date when one is (`frame`), so that a render which
+            // composes its last frame only (`--time`) finds them once, not after every pass.
+            self.reflectors_stale = !self.indirect.is_empty();
         }
         // The visibility widths: the next pass's penumbra marks read them, this pass's frame
         // (if composed) filters with them.
@@ -571,6 +575,12 @@ impl Strategy for AutoStrategy {
 
     fn frame(&mut self, ctx: &PassContext) -> Frame {
         let t = Instant::now();
+        if std::mem::take(&mut self.reflectors_stale) {
+            if let Some(w) = self.widths.as_mut() {
+                w.update_reflectors(&self.indirect, &self.opts);
+            }
+            tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: reflectors");
+        }
         let mut frame = self.compose(ctx, &self.shadow_widths);
         tracing::debug!(pass = ctx.pass, seconds = t.elapsed().as_secs_f64(), "auto: filters");
         self.method_seconds += t.elapsed().as_secs_f64();
