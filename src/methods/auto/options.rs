@@ -11,7 +11,10 @@ pub struct AutoOptions {
     /// The exponent of that growth: 1/6 balances a bias growing as the width squared against
     /// a variance falling as 1 / (n width^2).
     pub refine_exponent: f64,
-    /// Scale of the soft-shadow widths (Mehta 2012 Eq. 13).
+    /// Scale of the soft-shadow widths (Mehta 2012 Eq. 13). Above 1: the paper sets its widths
+    /// for the sample counts of its Eq. 21, tens to hundreds per pixel, where a preview has a few,
+    /// and at a few samples the visibility's noise outweighs the wider filter's bias in
+    /// penumbrae (measured on area- and Gaussian-lit scenes: BENCHMARKS.md, "Denoising").
     pub shadow_width_scale: f64,
     /// Scale of the indirect widths (Mehta 2013 Eqs. 15-16), diffuse and glossy.
     pub indirect_width_scale: f64,
@@ -97,7 +100,7 @@ impl Default for AutoOptions {
         AutoOptions {
             reference_spp: 16.0,
             refine_exponent: 1.0 / 6.0,
-            shadow_width_scale: 1.0,
+            shadow_width_scale: 1.5,
             indirect_width_scale: 1.0,
             analysis_spp: 8,
             reflector_radius: 3,
