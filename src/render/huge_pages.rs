@@ -28,11 +28,7 @@ pub fn advise<T: Copy>(v: Vec<T>) -> Vec<T> {
 /// `n` copies of `value` in memory advised to use huge pages (when large enough), written by
 /// the rayon pool's threads so that the first-touch cost is shared.
 pub fn filled<T: Clone + Send + Sync>(n: usize, value: T) -> Vec<T> {
-    let mut out: Vec<T> = Vec::with_capacity(n);
-    let bytes = n * std::mem::size_of::<T>();
-    if cfg!(target_os = "linux") && bytes >= MIN_BYTES {
-        mark(out.as_ptr() as usize, bytes);
-    }
+    let mut out = reserved(n);
     out.par_extend(rayon::iter::repeat_n(value, n));
     out
 }
@@ -44,14 +40,20 @@ where
     I: IndexedParallelIterator,
     I::Item: Send,
 {
-    let n = iter.len();
-    let mut out: Vec<I::Item> = Vec::with_capacity(n);
-    let bytes = n * std::mem::size_of::<I::Item>();
+    let mut out = reserved(iter.len());
+    // Writes into the capacity reserved (rayon reallocates only a smaller vector).
+    iter.collect_into_vec(&mut out);
+    out
+}
+
+/// An empty vector with room for `n` items, advised to use huge pages when large enough; the
+/// advice must come before the first write.
+fn reserved<T>(n: usize) -> Vec<T> {
+    let out: Vec<T> = Vec::with_capacity(n);
+    let bytes = n * std::mem::size_of::<T>();
     if cfg!(target_os = "linux") && bytes >= MIN_BYTES {
         mark(out.as_ptr() as usize, bytes);
     }
-    // Writes into the capacity reserved above (rayon reallocates only a smaller vector).
-    iter.collect_into_vec(&mut out);
     out
 }
 

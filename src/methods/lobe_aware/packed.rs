@@ -219,8 +219,8 @@ impl Row {
         }
         let (ax, ay, az) = (body(ax, pad, len), body(ay, pad, len), body(az, pad, len));
         let (vx, vy, vz) = (body(vx, pad, len), body(vy, pad, len), body(vz, pad, len));
-        let (sharpness, inverse) = (&mut self.sharpness[pad..pad + len], &mut self.inverse[pad..pad + len]);
-        let (depth, valid) = (&mut self.depth[pad..pad + len], &mut self.valid[pad..pad + len]);
+        let (sharpness, inverse) = (body(&mut self.sharpness, pad, len), body(&mut self.inverse, pad, len));
+        let (depth, valid) = (body(&mut self.depth, pad, len), body(&mut self.valid, pad, len));
         for (i, (g, v)) in guides.iter().zip(values).enumerate() {
             [ax[i], ay[i], az[i]] = g.axis;
             [vx[i], vy[i], vz[i]] = *v;
@@ -469,6 +469,11 @@ mod tests {
         (guides, values)
     }
 
+    /// The guides packed, and each one's width in pixels.
+    fn packed_with_widths(guides: &[Guide]) -> (Vec<PackedGuide>, Vec<f32>) {
+        (guides.iter().map(PackedGuide::new).collect(), guides.iter().map(|g| g.sigma_px as f32).collect())
+    }
+
     #[test]
     fn matches_the_f64_separable_gather() {
         let mut rng = Rng(7);
@@ -480,8 +485,7 @@ mod tests {
             gather: Gather::Separable,
         };
         let oracle = filter(&guides, 40, &values, &opts).values;
-        let packed: Vec<PackedGuide> = guides.iter().map(PackedGuide::new).collect();
-        let sigma: Vec<f32> = guides.iter().map(|g| g.sigma_px as f32).collect();
+        let (packed, sigma) = packed_with_widths(&guides);
         let mut mine: Vec<[f32; 3]> = values.iter().map(|v| v.map(|x| x as f32)).collect();
         let po = PackedOptions { beta: 20.0, sigma_z2_relative: 0.01, max_radius: 16, linear: false };
         gather(&packed, &sigma, 40, &mut mine, &po);
@@ -524,8 +528,7 @@ mod tests {
     fn a_constant_image_stays_constant_and_invalid_pixels_pass_through() {
         let mut rng = Rng(11);
         let (guides, _) = scene(&mut rng);
-        let packed: Vec<PackedGuide> = guides.iter().map(PackedGuide::new).collect();
-        let sigma: Vec<f32> = guides.iter().map(|g| g.sigma_px as f32).collect();
+        let (packed, sigma) = packed_with_widths(&guides);
         let mut values: Vec<[f32; 3]> =
             guides.iter().map(|g| if g.valid { [0.25, 1.5, 3.0] } else { [7.0; 3] }).collect();
         gather(
@@ -644,8 +647,7 @@ mod tests {
     fn the_result_does_not_depend_on_the_thread_count() {
         let mut rng = Rng(5);
         let (guides, values) = scene(&mut rng);
-        let packed: Vec<PackedGuide> = guides.iter().map(PackedGuide::new).collect();
-        let sigma: Vec<f32> = guides.iter().map(|g| g.sigma_px as f32).collect();
+        let (packed, sigma) = packed_with_widths(&guides);
         let run = |threads: usize| {
             let mut v: Vec<[f32; 3]> = values.iter().map(|v| v.map(|x| x as f32)).collect();
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
@@ -663,8 +665,7 @@ mod tests {
     fn a_feed_mask_equals_invalid_guides() {
         let mut rng = Rng(11);
         let (guides, values) = scene(&mut rng);
-        let packed: Vec<PackedGuide> = guides.iter().map(PackedGuide::new).collect();
-        let sigma: Vec<f32> = guides.iter().map(|g| g.sigma_px as f32).collect();
+        let (packed, sigma) = packed_with_widths(&guides);
         let feeds: Vec<bool> = (0..packed.len()).map(|_| rng.f() > 0.2).collect();
         let masked: Vec<PackedGuide> =
             packed.iter().zip(&feeds).map(|(g, &f)| if f { *g } else { PackedGuide::INVALID }).collect();
