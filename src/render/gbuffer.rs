@@ -52,6 +52,22 @@ impl GSample {
     pub fn is_valid(&self) -> bool {
         self.object != NONE
     }
+
+    /// The projected pixel size d (0 for background), divided by max(|n . view|, 0.1) when
+    /// `foreshortening` (methods.md §0.1: the AAF papers say d "accounts for foreshortening";
+    /// the authors' code leaves it out).
+    pub fn projected_size(&self, camera: Vec3, foreshortening: bool) -> f64 {
+        if !self.is_valid() {
+            return 0.0;
+        }
+        let d = self.pixel_size as f64;
+        if foreshortening {
+            let view = (camera - self.position).normalize_or_zero();
+            d / (self.normal.dot(view).abs() as f64).max(0.1)
+        } else {
+            d
+        }
+    }
 }
 
 pub struct GBuffer {
@@ -100,25 +116,9 @@ impl GBuffer {
         (!stopped.into_inner()).then_some(GBuffer { width: w as u32, height: h as u32, pixels })
     }
 
-    /// The projected pixel size d of every pixel (0 for background), divided by
-    /// max(|n . view|, 0.1) when `foreshortening` (methods.md §0.1: the AAF papers say d
-    /// "accounts for foreshortening"; the authors' code leaves it out).
+    /// Every pixel's `GSample::projected_size`.
     pub fn pixel_sizes(&self, camera: Vec3, foreshortening: bool) -> Vec<f64> {
-        self.pixels
-            .par_iter()
-            .map(|p| {
-                if !p.is_valid() {
-                    return 0.0;
-                }
-                let d = p.pixel_size as f64;
-                if foreshortening {
-                    let view = (camera - p.position).normalize_or_zero();
-                    d / (p.normal.dot(view).abs() as f64).max(0.1)
-                } else {
-                    d
-                }
-            })
-            .collect()
+        self.pixels.par_iter().map(|p| p.projected_size(camera, foreshortening)).collect()
     }
 
     pub fn at(&self, x: u32, y: u32) -> &GSample {

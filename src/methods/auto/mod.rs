@@ -65,7 +65,7 @@ use crate::render::sampler::hash_words;
 use rayon::prelude::*;
 use sample::{IndirectSums, LightSums, PixelSums, Sampling};
 use scales::Composed;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 use widths::Widths;
 
@@ -132,14 +132,18 @@ pub struct AutoStrategy {
     /// Tokuyoshi's guides from the G-buffer: diffuse lobes and specular lobes.
     diffuse_guides: Vec<PackedGuide>,
     glossy_guides: Vec<PackedGuide>,
-    /// Pixels within 2 px of a change of the surface normal (`scales::creases`); empty in
-    /// direct-light renders.
-    creases: Vec<bool>,
+    /// Pixels within 2 px of a change of the surface normal (`scales::creases`), found by the
+    /// first frame whose pixels have samples enough for the narrow scale to read them.
+    creases: OnceLock<Vec<bool>>,
     widths: Option<Widths>,
     /// Analysis samples were added since the reflector distances were last found.
     reflectors_stale: bool,
-    /// Each light's visibility filter width at every pixel, as the last pass left them.
+    /// Analysis samples were added since the slopes were last found.
+    slopes_stale: bool,
+    /// Each light's visibility filter width at every pixel (`update_shadow_widths`), and
+    /// whether they are those of the samples taken so far.
     shadow_widths: Vec<Vec<f32>>,
+    shadow_widths_current: bool,
     /// Samples per pixel the passes so far asked for.
     target: u32,
     rays: u64,
@@ -174,10 +178,12 @@ impl AutoStrategy {
             gbuffer: None,
             diffuse_guides: Vec::new(),
             glossy_guides: Vec::new(),
-            creases: Vec::new(),
+            creases: OnceLock::new(),
             widths: None,
             reflectors_stale: false,
+            slopes_stale: false,
             shadow_widths: Vec::new(),
+            shadow_widths_current: false,
             target: 0,
             rays: 0,
             dropped: 0,
@@ -209,10 +215,6 @@ impl AutoStrategy {
         self.diffuse_guides = packed(false);
         if self.glossy {
             self.glossy_guides = packed(true);
-        }
-        // The narrow scale that reads them filters indirect light alone.
-        if ctx.job.bounces > 0 {
-            self.creases = scales::creases(&self.diffuse_guides, self.width, 2);
         }
         self.widths = Some(Widths::new(ctx, &g));
         tracing::debug!(seconds = t.elapsed().as_secs_f64(), "auto: guides and pixel sizes");
@@ -248,30 +250,44 @@ impl AutoStrategy {
     /// Each light's visibility filter width (standard deviation, pixels) at every pixel, from
     /// the slopes and the samples the pixels have: what the frame filters with and what the
     /// next pass's penumbra marks read.
-    fn shadow_widths(&self, ctx: &PassContext) -> Vec<Vec<f32>> {
+    fn shadow_widths(&self, ctx: &PassContext, taken: &[u32]) -> Vec<Vec<f32>> {
         let (nl, widths) = (self.lights.len(), self.widths.as_ref().expect("set up in pass 0"));
         (0..nl)
             .map(|l| {
                 let slopes = |p: usize| self.slopes.get(p * nl + l).and_then(|s| s.get());
-                widths.shadow(ctx, &self.lights[l], slopes, &self.sums, &self.opts)
+                widths.shadow(ctx, &self.lights[l], slopes, taken, &self.opts)
             })
             .collect()
+    }
+
+    /// Brings the slopes (if analysis samples were added since they were found) and each
+    /// light's visibility widths at the pixels' `taken` samples up to date.
+    fn update_shadow_widths(&mut self, ctx: &PassContext, taken: &[u32]) {
+        let t = Instant::now();
+        if std::mem::take(&mut self.slopes_stale) {
+            self.update_slopes(ctx.job.aaf.fill_radius as usize);
+            tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: slopes");
+        }
+        self.shadow_widths = self.shadow_widths(ctx, taken);
+        self.shadow_widths_current = true;
+        tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: visibility widths");
     }
 
     /// Marks each pixel-light whose visibility filter is narrower than `penumbra_max_width`
     /// pixels (`LightSums::narrow`): there the filter cannot average the visibility's noise
     /// over neighbours, so a camera sample in a penumbra takes `penumbra_rays` light samples
-    /// (`Sampling::run`). Until the first frame every pixel counts as narrow.
-    fn mark_narrow_penumbrae(&mut self, shadow_widths: &[Vec<f32>]) {
+    /// (`Sampling::run`). Until the first marks every pixel counts as narrow.
+    fn mark_narrow_penumbrae(&mut self) {
         let (nl, limit) = (self.lights.len(), self.opts.penumbra_max_width as f32);
-        if self.opts.penumbra_rays <= 1 {
+        if self.opts.penumbra_rays <= 1 || nl == 0 {
             return;
         }
-        for (l, sigma) in shadow_widths.iter().enumerate() {
-            for (p, w) in sigma.iter().enumerate() {
-                self.light_sums[p * nl + l].narrow = *w < limit;
+        let widths = &self.shadow_widths;
+        self.light_sums.par_chunks_mut(nl).enumerate().for_each(|(p, lights)| {
+            for (l, s) in lights.iter_mut().enumerate() {
+                s.narrow = widths[l][p] < limit;
             }
-        }
+        });
     }
 
     /// Traces every pixel p up to min(`count(p)`, `target`) in the sweeps of `rounds`: a pass
@@ -360,20 +376,22 @@ impl AutoStrategy {
         };
         let mut width_px = vec![0.0f32; n];
         let mut components = Vec::new();
-        let feeding =
-            |keep: &(dyn Fn(usize) -> bool + Sync)| -> Vec<bool> { (0..n).into_par_iter().map(keep).collect() };
         let max_into = |acc: &mut [f32], w: &[f32]| acc.iter_mut().zip(w).for_each(|(a, b)| *a = a.max(*b));
-        let diffuse_guides = straddling_guides(&self.diffuse_guides, &self.sums);
+        // What the parts below read of the pixels' sums, taken from them once.
+        let diffuse_guides: Vec<PackedGuide> =
+            (self.sums.par_iter().zip(&self.diffuse_guides)).map(|(s, g)| straddling_guide(g, s)).collect();
+        let spp: Vec<f32> = self.sums.par_iter().map(|s| s.taken as f32).collect();
+        let x_n: Vec<u32> = self.sums.par_iter().map(|s| s.x_n).collect();
         // Soft shadows: each light's visibility, filtered.
         let mut shadow_width = vec![0.0f32; n];
         let visibility: Vec<Vec<[f32; 3]>> = (0..nl)
             .map(|l| {
                 let at = |p: usize| &self.light_sums[p * nl + l];
-                let raw: Vec<[f32; 3]> =
-                    (0..n).into_par_iter().map(|p| ratio(at(p).a, at(p).b).map(|x| x as f32)).collect();
+                let (mut vis, feeds): (Vec<[f32; 3]>, Vec<bool>) = (0..n)
+                    .into_par_iter()
+                    .map(|p| (ratio(at(p).a, at(p).b).map(|x| x as f32), at(p).b.iter().any(|&b| b > 0.0)))
+                    .unzip();
                 let sigma = &shadow_widths[l];
-                let feeds = feeding(&|p| at(p).b.iter().any(|&b| b > 0.0));
-                let mut vis = raw;
                 gather_where(&diffuse_guides, &feeds, sigma, self.width, &mut vis, &o);
                 max_into(&mut shadow_width, sigma);
                 vis
@@ -384,7 +402,7 @@ impl AutoStrategy {
             max_into(&mut width_px, &shadow_width);
             components.push(ComponentMaps {
                 name: "shadow".to_string(),
-                spp: self.sums.par_iter().map(|s| s.taken as f32).collect(),
+                spp: spp.clone(),
                 filter_width: Some(shadow_width),
             });
         }
@@ -395,23 +413,30 @@ impl AutoStrategy {
             (true, false) => &[false],
             (true, true) => &[false, true],
         };
-        // The narrow scale starts at `narrow_from_spp`, and earlier at creases.
+        // The narrow scale starts at `narrow_from_spp`, and earlier at creases. Until some pixel
+        // has the samples the earlier start asks for, no pixel is at either and the creases
+        // are not needed (a short preview never finds them).
         let (from, crease_from) = (self.opts.narrow_from_spp, self.opts.narrow_crease_from_spp);
-        let from_at = |p: usize| if self.creases.get(p) == Some(&true) { from.min(crease_from) } else { from };
-        let two_scales = self.opts.narrow_scale > 0.0
-            && !parts.is_empty()
-            && (self.sums.par_iter().enumerate()).any(|(p, s)| s.x_n >= from_at(p));
+        let may_narrow = self.opts.narrow_scale > 0.0 && !parts.is_empty();
+        let creases: &[bool] = if may_narrow && x_n.par_iter().any(|&x| x >= from.min(crease_from)) {
+            self.creases.get_or_init(|| scales::creases(&self.diffuse_guides, self.width, 2))
+        } else {
+            &[]
+        };
+        let from_at = |p: usize| if creases.get(p) == Some(&true) { from.min(crease_from) } else { from };
+        let two_scales = may_narrow && (x_n.par_iter().enumerate()).any(|(p, &x)| x >= from_at(p));
         let mut narrow_sigma = vec![0.0f32; n];
         let mut narrow_power = vec![1.0f32; n];
         let indirect: Vec<IndirectPart> = parts
             .iter()
             .map(|&glossy| {
                 let at = |p: usize| self.indirect[p].component(glossy);
-                let mut light: Vec<[f32; 3]> =
-                    (0..n).into_par_iter().map(|p| mean(at(p).light, at(p).surface).map(|x| x as f32)).collect();
-                let sigma = widths.indirect(ctx, glossy, &self.indirect, &self.opts);
+                let (mut light, (feeds, taken)): Unzipped<[f32; 3], (Vec<bool>, Vec<u32>)> = (0..n)
+                    .into_par_iter()
+                    .map(|p| (mean(at(p).light, at(p).surface).map(|x| x as f32), (at(p).surface > 0, at(p).n)))
+                    .unzip();
+                let sigma = widths.indirect(ctx, glossy, &taken, &self.opts);
                 let base = if glossy { &self.glossy_guides } else { &diffuse_guides };
-                let feeds = feeding(&|p| at(p).surface > 0);
                 let narrow = (two_scales && !glossy).then(|| {
                     let scale = self.opts.narrow_scale as f32;
                     narrow_sigma.iter_mut().zip(&sigma).for_each(|(ns, s)| *ns = s * scale);
@@ -425,7 +450,7 @@ impl AutoStrategy {
                 max_into(&mut width_px, &sigma);
                 components.push(ComponentMaps {
                     name: if glossy { "glossy" } else { "diffuse" }.to_string(),
-                    spp: (0..n).into_par_iter().map(|p| at(p).n as f32).collect(),
+                    spp: taken.par_iter().map(|&n| n as f32).collect(),
                     filter_width: Some(sigma),
                 });
                 IndirectPart { glossy, light, narrow }
@@ -460,29 +485,32 @@ impl AutoStrategy {
             }
             Composed { wide: color, narrow, unfiltered }
         };
-        // (frame, unfiltered) per pixel. Without the narrow scale the three-value `Composed`
-        // is never stored: at preview sizes a frame's fresh buffers cost page faults on the order
-        // of the arithmetic.
-        let composed: Vec<([f64; 3], [f64; 3])> = if two_scales {
-            let composed: Vec<Composed> = (0..n).into_par_iter().map(compose_at).collect();
-            scales::select(self.width, &composed, &self.sums, &narrow_sigma, &narrow_power, &from_at)
+        // Where the filter's bias outgrows the noise it removes (`blend.rs`); before any pixel
+        // has `blend_from_spp` samples every weight is 0 (the frame is the filtered value), and
+        // neither the weights nor the (frame, unfiltered) pairs they read are kept: at preview
+        // sizes a frame's fresh buffers cost page faults on the order of the arithmetic.
+        let from = self.opts.blend_from_spp;
+        let blending = from > 0 && x_n.par_iter().any(|&x| x >= from);
+        let clamp = |v: [f64; 3]| v.map(|x| x.max(0.0) as f32);
+        let (color, unfiltered): (Vec<[f32; 3]>, Vec<[f32; 3]>) = if !two_scales && !blending {
+            (0..n).into_par_iter().map(compose_at).map(|c| (clamp(c.wide), clamp(c.unfiltered))).unzip()
         } else {
-            collected((0..n).into_par_iter().map(compose_at).map(|c| (c.wide, c.unfiltered)))
+            let composed: Vec<([f64; 3], [f64; 3])> = if two_scales {
+                let composed: Vec<Composed> = (0..n).into_par_iter().map(compose_at).collect();
+                scales::select(self.width, &composed, &self.sums, &narrow_sigma, &narrow_power, &from_at)
+            } else {
+                collected((0..n).into_par_iter().map(compose_at).map(|c| (c.wide, c.unfiltered)))
+            };
+            let weights = blending.then(|| {
+                let variance: Vec<f64> = (self.sums.par_iter())
+                    .map(|s| if s.x_n >= from { s.mean_variance() } else { f64::INFINITY })
+                    .collect();
+                blend::pooled_weights(self.width, &composed, &variance)
+            });
+            let weight = |p: usize| weights.as_ref().map_or(0.0, |w| w[p]);
+            (composed.par_iter().enumerate()).map(|(p, &(f, u))| (clamp(blend::mix(f, u, weight(p))), clamp(u))).unzip()
         };
         tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: composed");
-        // Where the filter's bias outgrows the noise it removes (`blend.rs`); before any pixel
-        // has `blend_from_spp` samples every weight is 0, and none is computed.
-        let from = self.opts.blend_from_spp;
-        let weights = (from > 0 && self.sums.par_iter().any(|s| s.x_n >= from)).then(|| {
-            let variance: Vec<f64> =
-                (self.sums.par_iter()).map(|s| if s.x_n >= from { s.mean_variance() } else { f64::INFINITY }).collect();
-            blend::pooled_weights(self.width, &composed, &variance)
-        });
-        let weight = |p: usize| weights.as_ref().map_or(0.0, |w| w[p]);
-        let (color, unfiltered): (Vec<[f32; 3]>, Vec<[f32; 3]>) = (composed.par_iter().enumerate())
-            .map(|(p, &(f, u))| (blend::mix(f, u, weight(p)).map(|x| x.max(0.0) as f32), u.map(|x| x.max(0.0) as f32)))
-            .unzip();
-        let spp: Vec<f32> = self.sums.par_iter().map(|s| s.taken as f32).collect();
         Frame {
             shading: None,
             width: self.width as u32,
@@ -503,24 +531,23 @@ impl AutoStrategy {
     }
 }
 
-/// The diffuse guides with each pixel whose first samples straddle an edge (`PixelSums::mixed`)
-/// turned to the mean of the normals those samples saw. The G-buffer's guide is its centre's
-/// face alone, so such a pixel would gather from that face's side only and take its light for
-/// the pixel's mix of both (a room's crease came out too bright); with the mean normal it
-/// gathers mostly from the pixels along the edge, which straddle it alike, and the faces'
-/// pixels mostly not from it.
-fn straddling_guides(guides: &[PackedGuide], sums: &[PixelSums]) -> Vec<PackedGuide> {
-    (guides.par_iter().zip(sums))
-        .map(|(g, s)| {
-            let n = s.seen_normals.normalize_or_zero();
-            if s.mixed && g.is_valid() && n != glam::Vec3::ZERO {
-                PackedGuide { axis: n.to_array(), ..*g }
-            } else {
-                *g
-            }
-        })
-        .collect()
+/// A pixel's diffuse guide, turned to the mean of the normals its samples saw where its first
+/// samples straddle an edge (`PixelSums::mixed`). The G-buffer's guide is its centre's face
+/// alone, so such a pixel would gather from that face's side only and take its light for the
+/// pixel's mix of both (a room's crease came out too bright); with the mean normal it gathers
+/// mostly from the pixels along the edge, which straddle it alike, and the faces' pixels mostly
+/// not from it.
+fn straddling_guide(g: &PackedGuide, s: &PixelSums) -> PackedGuide {
+    let n = s.seen_normals.normalize_or_zero();
+    if s.mixed && g.is_valid() && n != glam::Vec3::ZERO {
+        PackedGuide { axis: n.to_array(), ..*g }
+    } else {
+        *g
+    }
 }
+
+/// Two per-pixel vectors built in one parallel pass (`unzip`).
+type Unzipped<A, B> = (Vec<A>, B);
 
 /// One indirect component's untextured light, filtered at its width and (the diffuse light,
 /// from `narrow_from_spp` on) at the narrow scale.
@@ -528,6 +555,16 @@ struct IndirectPart {
     glossy: bool,
     light: Vec<[f32; 3]>,
     narrow: Option<Vec<[f32; 3]>>,
+}
+
+/// Whether the pass from `before` to `target` samples per pixel sets the penumbra marks: the
+/// first pass, the one that completes the `analysis_spp` analysis samples, and every one after.
+/// In between (pass 1 of 1, 4, 16, ...) a slope fill and widths over the image would refine the
+/// marks of one pass that the first pass's marks steer nearly as well, at a preview budget's
+/// price (BENCHMARKS.md, "Denoising"). Frames composed there find the widths for themselves and
+/// mark nothing, so the marks, and the final frame, do not depend on which frames were composed.
+pub(super) fn refreshes_marks(before: u32, target: u32, analysis_spp: u32) -> bool {
+    before == 0 || target >= analysis_spp
 }
 
 /// Samples per pixel after pass `pass`: `initial` in pass 0, four times as many per pass after
@@ -551,25 +588,29 @@ impl Strategy for AutoStrategy {
         let complete = self.trace(ctx, before, self.target)?;
         let t = Instant::now();
         tracing::debug!(pass = ctx.pass, spp = self.target, seconds = (t - traced).as_secs_f64(), "auto: traced");
-        // The analysis samples just added move the slopes and reflector distances.
+        // The analysis samples just added move the slopes and reflector distances; reflector
+        // distances set the indirect widths alone, which only a composed frame reads: they are
+        // brought up to date when one is (`frame`), so that a render which composes its last
+        // frame only (`--time`) finds them once, not after every pass.
         if before < self.opts.analysis_spp {
-            self.update_slopes(ctx.job.aaf.fill_radius as usize);
-            tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: slopes");
-            // Reflector distances set the indirect widths alone, which only a composed frame
-            // reads: they are brought up to date when one is (`frame`), so that a render which
-            // composes its last frame only (`--time`) finds them once, not after every pass.
+            self.slopes_stale = true;
             self.reflectors_stale = !self.indirect.is_empty();
         }
-        // The visibility widths: the next pass's penumbra marks read them, this pass's frame
-        // (if composed) filters with them.
-        let shadow_widths = self.shadow_widths(ctx);
-        tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: visibility widths");
-        self.mark_narrow_penumbrae(&shadow_widths);
-        self.shadow_widths = shadow_widths;
+        let taken: Vec<u32> = self.sums.par_iter().map(|s| s.taken).collect();
+        // The visibility widths: this pass's frame (if composed) filters with them, and the
+        // next pass's penumbra marks read them (a pass the budget cut is the last: it marks
+        // nothing). The passes between the first and the one that completes the analysis
+        // samples leave the first pass's marks (`refreshes_marks`).
+        self.shadow_widths_current = false;
+        if refreshes_marks(before, self.target, self.opts.analysis_spp) {
+            self.update_shadow_widths(ctx, &taken);
+            if complete {
+                self.mark_narrow_penumbrae();
+            }
+        }
         tracing::debug!(pass = ctx.pass, seconds = t.elapsed().as_secs_f64(), "auto: analysis");
         self.method_seconds += t.elapsed().as_secs_f64();
-        let n = self.sums.len().max(1) as f64;
-        let mean_spp = self.sums.iter().map(|s| s.taken as f32 as f64).sum::<f64>() / n;
+        let mean_spp = taken.iter().map(|&n| n as f32 as f64).sum::<f64>() / taken.len().max(1) as f64;
         Ok(Sampled { complete, mean_spp, rays_traced: self.rays, dropped_samples: self.dropped })
     }
 
@@ -580,6 +621,10 @@ impl Strategy for AutoStrategy {
                 w.update_reflectors(&self.indirect, &self.opts);
             }
             tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: reflectors");
+        }
+        if !self.shadow_widths_current {
+            let taken: Vec<u32> = self.sums.par_iter().map(|s| s.taken).collect();
+            self.update_shadow_widths(ctx, &taken);
         }
         let mut frame = self.compose(ctx, &self.shadow_widths);
         tracing::debug!(pass = ctx.pass, seconds = t.elapsed().as_secs_f64(), "auto: filters");

@@ -502,7 +502,7 @@ fn pixels_on_edges_compute_r_on_every_sample() {
 #[test]
 fn a_pixel_straddling_an_edge_is_guided_by_the_mean_of_its_normals() {
     use super::sample::PixelSums;
-    use super::straddling_guides;
+    use super::straddling_guide;
     use crate::methods::lobe_aware::packed::PackedGuide;
     let guide = PackedGuide { axis: [1.0, 0.0, 0.0], sharpness: 2.0, ln_sharpness: 2f32.ln(), depth: 3.0, valid: 1.0 };
     let mut straddling = PixelSums::default();
@@ -515,7 +515,10 @@ fn a_pixel_straddling_an_edge_is_guided_by_the_mean_of_its_normals() {
         flat.note_seen(i, 16, Some((0, Vec3::X)));
     }
     assert!(straddling.mixed && !flat.mixed);
-    let out = straddling_guides(&[guide, guide, PackedGuide::INVALID], &[straddling, flat, straddling]);
+    let out: Vec<PackedGuide> = [(guide, straddling), (guide, flat), (PackedGuide::INVALID, straddling)]
+        .iter()
+        .map(|(g, s)| straddling_guide(g, s))
+        .collect();
     let h = std::f32::consts::FRAC_1_SQRT_2;
     assert!(out[0].axis.iter().zip([h, h, 0.0]).all(|(a, b)| (a - b).abs() < 1e-6), "{:?}", out[0].axis);
     assert_eq!(PackedGuide { axis: guide.axis, ..out[0] }, guide, "only the axis changes");
@@ -566,6 +569,21 @@ fn penumbra_rays_lower_the_noise_at_equal_samples_and_keep_the_energy() {
     for (rays, (_, _, m)) in [(1, one), (4, four)] {
         assert!((m / r - 1.0).abs() < 0.02, "{rays} rays: mean {m} vs {r}");
     }
+}
+
+/// The penumbra marks are set by the first pass, by the one that completes the analysis
+/// samples, and by every one after; passes in between keep the first pass's.
+#[test]
+fn the_marks_skip_the_passes_inside_the_analysis_samples() {
+    use super::{pass_target, refreshes_marks};
+    let schedule = |initial: u32, analysis: u32| -> Vec<bool> {
+        let targets: Vec<u32> = (0..5).map(|p| pass_target(initial, p, 0.0)).collect();
+        (0..5).map(|p| refreshes_marks(if p == 0 { 0 } else { targets[p - 1] }, targets[p], analysis)).collect()
+    };
+    assert_eq!(schedule(1, 8), [true, false, true, true, true]);
+    assert_eq!(schedule(1, 64), [true, false, false, true, true]);
+    assert_eq!(schedule(8, 8), [true; 5]);
+    assert_eq!(schedule(1, 1), [true; 5]);
 }
 
 /// The k light samples of a camera sample: the first is its own point, all lie in [0, 1)^2, and

@@ -1,21 +1,22 @@
 //! `auto`'s per-pixel filter widths (methods.md §5.2): the AAF papers' widths at the mu the
 //! pixel's samples reach, in pixels.
 use super::options::AutoOptions;
-use super::sample::{IndirectSums, PixelSums};
+use super::sample::IndirectSums;
 use crate::methods::aaf_indirect::glossy_model;
 use crate::methods::aaf_indirect::params::{self as indirect, omega_h_glossy, Reflectors};
 use crate::methods::aaf_shadows::params::{self as shadows, PixelGeometry};
 use crate::methods::aaf_shadows::ShadowLight;
 use crate::pipeline::strategy::PassContext;
 use crate::render::gbuffer::GBuffer;
+use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::Arc;
 
 pub(super) struct Widths {
     gbuffer: Arc<GBuffer>,
-    /// Projected pixel sizes as each paper's options define them (foreshortening or not).
-    d_shadow: Vec<f64>,
-    d_indirect: Vec<f64>,
+    /// Where the projected pixel sizes are seen from; each paper's options say whether they
+    /// count foreshortening (`GSample::projected_size`, found as read: cheaper than a buffer).
+    camera: Vec3,
     /// Per pixel, the mean nearest and farthest reflector of its neighbourhood's analysis
     /// samples (the pixel itself left out); None where none was seen.
     reflectors: Vec<Option<(f32, f32)>>,
@@ -23,13 +24,7 @@ pub(super) struct Widths {
 
 impl Widths {
     pub fn new(ctx: &PassContext, g: &Arc<GBuffer>) -> Self {
-        let camera = ctx.view.position;
-        Widths {
-            gbuffer: Arc::clone(g),
-            d_shadow: g.pixel_sizes(camera, ctx.job.aaf.foreshortening),
-            d_indirect: g.pixel_sizes(camera, ctx.job.indirect.foreshortening),
-            reflectors: vec![None; g.pixels.len()],
-        }
+        Widths { gbuffer: Arc::clone(g), camera: ctx.view.position, reflectors: vec![None; g.pixels.len()] }
     }
 
     /// Recomputes each pixel's reflector distances from its neighbours on the same object.
@@ -50,40 +45,39 @@ impl Widths {
         ctx: &PassContext,
         light: &ShadowLight,
         slopes: impl Fn(usize) -> Option<(f64, f64)> + Sync,
-        sums: &[PixelSums],
+        taken: &[u32],
         opts: &AutoOptions,
     ) -> Vec<f32> {
         let aaf = &ctx.job.aaf;
         // A table no longer than the image (a tiny image at many samples computes fewer).
-        let growths = opts.growths(sums.par_iter().map(|s| s.taken).max().unwrap_or(0).min(sums.len() as u32));
-        (0..self.d_shadow.len())
-            .into_par_iter()
-            .map(|p| {
-                let d = self.d_shadow[p];
+        let growths = opts.growths(taken.par_iter().copied().max().unwrap_or(0).min(taken.len() as u32));
+        (self.gbuffer.pixels.par_iter().enumerate())
+            .map(|(p, g)| {
+                let d = g.projected_size(self.camera, aaf.foreshortening);
                 let Some((s1, s2)) = slopes(p) else { return 0.0 };
                 if !(d > 0.0) {
                     return 0.0;
                 }
-                let mu = growths.mu(aaf.mu0 * light.mu_scale, sums[p].taken);
+                let mu = growths.mu(aaf.mu0 * light.mu_scale, taken[p]);
                 let geometry = PixelGeometry { s1, s2, sigma: light.sigma, d };
                 let beta = shadows::filter_width(&geometry, &aaf.constants, mu) * opts.shadow_width_scale;
-                finite_px(beta / d, growths.max_sigma(sums[p].taken))
+                finite_px(beta / d, growths.max_sigma(taken[p]))
             })
             .collect()
     }
 
     /// The screen width of the diffuse or glossy indirect light at each pixel: Mehta 2013
-    /// Eqs. 15-16 at the mu of the pixel's samples; 0 where no reflector was seen.
-    pub fn indirect(&self, ctx: &PassContext, glossy: bool, indirect: &[IndirectSums], opts: &AutoOptions) -> Vec<f32> {
+    /// Eqs. 15-16 at the mu of the pixel's `taken` samples of that component; 0 where no
+    /// reflector was seen.
+    pub fn indirect(&self, ctx: &PassContext, glossy: bool, taken: &[u32], opts: &AutoOptions) -> Vec<f32> {
         let ind = &ctx.job.indirect;
         let c = &ind.constants;
         let z_floor = c.z_min_fraction * ctx.scene.max_extent() as f64;
-        let most = indirect.par_iter().map(|s| s.component(glossy).n).max().unwrap_or(0);
-        let growths = opts.growths(most.min(indirect.len() as u32));
-        (0..self.d_indirect.len())
-            .into_par_iter()
-            .map(|p| {
-                let (d, g) = (self.d_indirect[p], &self.gbuffer.pixels[p]);
+        let most = taken.par_iter().copied().max().unwrap_or(0);
+        let growths = opts.growths(most.min(taken.len() as u32));
+        (self.gbuffer.pixels.par_iter().enumerate())
+            .map(|(p, g)| {
+                let d = g.projected_size(self.camera, ind.foreshortening);
                 let Some((z_min, z_max)) = self.reflectors[p] else { return 0.0 };
                 if !(d > 0.0) {
                     return 0.0;
@@ -95,7 +89,7 @@ impl Widths {
                 };
                 let z_min = (z_min as f64).max(z_floor);
                 let r = Reflectors { z_min, z_max: (z_max as f64).max(z_min), omega_h, d };
-                let n = indirect[p].component(glossy).n;
+                let n = taken[p];
                 let mu = growths.mu(ind.mu0, n);
                 let beta = indirect::filter_width(&r, c, mu) * ind.kernel_scale * opts.indirect_width_scale;
                 finite_px(beta / d, growths.max_sigma(n))
@@ -126,52 +120,67 @@ pub(super) struct Seen {
 /// Per valid pixel, the means of the nearest and farthest reflectors seen by the pixels of the
 /// same object in the (2 radius + 1)^2 window around it, the pixel itself left out; None where
 /// none was seen. Where the whole window is one object (most pixels), from separable box sums;
-/// elsewhere by visiting the window.
+/// elsewhere by visiting the window. Bands of rows run in parallel, each with the row sums of
+/// its own rows and the `radius` rows around them, as `aaf_shadows::fill_slopes`: no
+/// image-sized buffer besides the result.
 pub(super) fn neighbourhood_reflectors(
     w: usize,
     h: usize,
     radius: usize,
     seen: &(dyn Fn(usize) -> Seen + Sync),
 ) -> Vec<Option<(f32, f32)>> {
-    let pixels: Vec<Seen> = (0..w * h).into_par_iter().map(seen).collect();
-    // Sums of (count, z_min, z_max) and the lowest and highest object over each window.
+    const BAND: usize = 32;
+    let mut out = vec![None; w * h];
+    if w == 0 {
+        return out;
+    }
+    // Sums of (count, z_min, z_max) and the lowest and highest object over a span.
     let own = |s: &Seen| s.z.map_or([0.0; 3], |(a, b)| [1.0, a as f64, b as f64]);
-    let entries: Vec<([f64; 3], u32, u32)> = pixels.par_iter().map(|s| (own(s), s.object, s.object)).collect();
-    let add = |a: ([f64; 3], u32, u32), b: &([f64; 3], u32, u32)| {
+    let add = |a: ([f64; 3], u32, u32), b: ([f64; 3], u32, u32)| {
         ([a.0[0] + b.0[0], a.0[1] + b.0[1], a.0[2] + b.0[2]], a.1.min(b.1), a.2.max(b.2))
     };
     let empty = ([0.0; 3], u32::MAX, 0);
-    let across: Vec<([f64; 3], u32, u32)> = (0..w * h)
-        .into_par_iter()
-        .map(|p| {
-            let (x, row) = (p % w, p - p % w);
-            (x.saturating_sub(radius)..(x + radius + 1).min(w)).fold(empty, |acc, nx| add(acc, &entries[row + nx]))
-        })
-        .collect();
-    (0..w * h)
-        .into_par_iter()
-        .map(|p| {
-            let c = &pixels[p];
-            if !c.valid {
-                return None;
-            }
-            let (x, y) = (p % w, p / w);
-            let window = (y.saturating_sub(radius)..(y + radius + 1).min(h))
-                .fold(empty, |acc, ny| add(acc, &across[ny * w + x]));
-            let [count, z_min, z_max] = if window.1 == c.object && window.2 == c.object {
-                let o = own(c);
-                [window.0[0] - o[0], window.0[1] - o[1], window.0[2] - o[2]]
-            } else {
-                let mut sum = [0.0f64; 3];
-                for q in super::window(w, h, p, radius) {
-                    if q != p && pixels[q].object == c.object {
-                        let e = own(&pixels[q]);
-                        sum = [sum[0] + e[0], sum[1] + e[1], sum[2] + e[2]];
-                    }
+    out.par_chunks_mut(BAND * w).enumerate().for_each_init(
+        || (Vec::new(), Vec::new()),
+        |(pixels, across), (band, out)| {
+            let (y0, y1) = (band * BAND, (band * BAND + BAND).min(h));
+            let (p0, p1) = (y0.saturating_sub(radius), (y1 + radius).min(h));
+            // The band's rows and the `radius` rows around it: each pixel as seen, and the sums
+            // over the span of 2 radius + 1 pixels centred on it.
+            pixels.clear();
+            pixels.extend((p0 * w..p1 * w).map(seen));
+            let entry = |s: &Seen| (own(s), s.object, s.object);
+            across.clear();
+            across.extend((0..pixels.len()).map(|i| {
+                let (x, row) = (i % w, i - i % w);
+                (x.saturating_sub(radius)..(x + radius + 1).min(w))
+                    .fold(empty, |acc, nx| add(acc, entry(&pixels[row + nx])))
+            }));
+            for (i, out) in out.iter_mut().enumerate() {
+                let (x, y) = (i % w, y0 + i / w);
+                let c = &pixels[(y - p0) * w + x];
+                if !c.valid {
+                    continue;
                 }
-                sum
-            };
-            (count > 0.5).then(|| ((z_min / count) as f32, (z_max / count) as f32))
-        })
-        .collect()
+                let window = (y.saturating_sub(radius)..(y + radius + 1).min(h))
+                    .fold(empty, |acc, ny| add(acc, across[(ny - p0) * w + x]));
+                let [count, z_min, z_max] = if window.1 == c.object && window.2 == c.object {
+                    let o = own(c);
+                    [window.0[0] - o[0], window.0[1] - o[1], window.0[2] - o[2]]
+                } else {
+                    let mut sum = [0.0f64; 3];
+                    for q in super::window(w, h, y * w + x, radius) {
+                        let s = &pixels[q - p0 * w];
+                        if q != y * w + x && s.object == c.object {
+                            let e = own(s);
+                            sum = [sum[0] + e[0], sum[1] + e[1], sum[2] + e[2]];
+                        }
+                    }
+                    sum
+                };
+                *out = (count > 0.5).then(|| ((z_min / count) as f32, (z_max / count) as f32));
+            }
+        },
+    );
+    out
 }

@@ -81,9 +81,10 @@ fn ln_lobe(s: (f32, f32), inv: (f32, f32), dot: f32, beta: f32) -> f32 {
 
 /// Filters `values` (row-major, `width` wide; finite) in place: a horizontal, then a vertical
 /// 1-D gather, each centre with its own screen width `sigma_px` (0: keep the value). Invalid
-/// pixels keep their values and feed no one. The vertical pass runs on the transposed image, so
-/// that both read memory in order. Rows run in parallel; the result does not depend on the
-/// thread count.
+/// pixels keep their values and feed no one. The vertical pass reads each column in place
+/// (`Lines`) and writes it whole, so that the only image-sized buffers are the two passes'
+/// outputs: at preview sizes fresh pages cost more than the gather's arithmetic. Lines run in
+/// parallel; the result does not depend on the thread count.
 pub fn gather(guides: &[PackedGuide], sigma_px: &[f32], width: usize, values: &mut [[f32; 3]], o: &PackedOptions) {
     gather_both(guides, None, sigma_px, width, values, o, false);
 }
@@ -135,26 +136,37 @@ fn gather_both(
     }
     let height = values.len() / width;
     let ones = power.then(|| vec![1.0f32; values.len()]);
-    let (across, power_across) = rows(guides, feeds, sigma_px, width, values, ones.as_deref(), o);
-    let (guides_t, sigma_t, across_t) =
-        (transpose(guides, width, height), transpose(sigma_px, width, height), transpose(&across, width, height));
-    let feeds_t = feeds.map(|f| transpose(f, width, height));
-    let power_t = power_across.map(|p| transpose(&p, width, height));
-    let (down_t, power_down_t) =
-        rows(&guides_t, feeds_t.as_deref(), &sigma_t, height, &across_t, power_t.as_deref(), o);
-    values.copy_from_slice(&transpose(&down_t, height, width));
-    power_down_t.map(|p| transpose(&p, height, width))
+    let (across, power_across) = lines(Lines::rows(width), guides, feeds, sigma_px, values, ones.as_deref(), o);
+    // Column-major: column x's entries from x * height on.
+    let (down, power_down) =
+        lines(Lines::columns(width, height), guides, feeds, sigma_px, &across, power_across.as_deref(), o);
+    values.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
+        row.iter_mut().enumerate().for_each(|(x, v)| *v = down[x * height + y]);
+    });
+    power_down.map(|p| (0..values.len()).into_par_iter().map(|k| p[(k % width) * height + k / width]).collect())
 }
 
-/// `v` (row-major, `width` wide, `height` rows) transposed.
-fn transpose<T: Copy + Default + Send + Sync>(v: &[T], width: usize, height: usize) -> Vec<T> {
-    let mut out = vec![T::default(); v.len()];
-    out.par_chunks_mut(height.max(1)).enumerate().for_each(|(x, column)| {
-        for (y, o) in column.iter_mut().enumerate() {
-            *o = v[y * width + x];
-        }
-    });
-    out
+/// The lines a 1-D pass gathers along, `len` pixels each: element i of line j at
+/// `j * across + i * along` in the row-major image.
+#[derive(Clone, Copy, Debug)]
+struct Lines {
+    len: usize,
+    along: usize,
+    across: usize,
+}
+
+impl Lines {
+    fn rows(width: usize) -> Self {
+        Lines { len: width, along: 1, across: width }
+    }
+
+    fn columns(width: usize, height: usize) -> Self {
+        Lines { len: height, along: width, across: 1 }
+    }
+
+    fn at(&self, line: usize, i: usize) -> usize {
+        line * self.across + i * self.along
+    }
 }
 
 /// Centres are gathered this many at a time, one per lane (fixed-size arrays the compiler
@@ -179,18 +191,21 @@ struct Row {
 }
 
 impl Row {
-    /// Loads `guides` and `values` after `pad` invalid pixels, with `pad + LANES` after, a pixel
-    /// valid where its guide is and `feeds` (if given) holds. Only the padding is filled: the
-    /// row's own entries are each written once.
+    /// Loads line `line` of `guides` and `values` after `pad` invalid pixels, with `pad + LANES`
+    /// after, a pixel valid where its guide is and `feeds` (if given) holds. Only the padding is
+    /// filled: the row's own entries are each written once.
+    #[allow(clippy::too_many_arguments)]
     fn load(
         &mut self,
+        lines: Lines,
+        line: usize,
         guides: &[PackedGuide],
         feeds: Option<&[bool]>,
         values: &[[f32; 3]],
         power: Option<&[f32]>,
         pad: usize,
     ) {
-        let (len, n) = (guides.len(), guides.len() + 2 * pad + LANES);
+        let (len, n) = (lines.len, lines.len + 2 * pad + LANES);
         let pad_with = |v: &mut Vec<f32>, x: f32| {
             v.resize(n, x);
             v.truncate(n);
@@ -208,7 +223,9 @@ impl Row {
         // Only a gather asked for its noise power reads it.
         if let Some(p) = power {
             pad_with(&mut self.power, 1.0);
-            self.power[pad..pad + len].copy_from_slice(p);
+            for (i, q) in self.power[pad..pad + len].iter_mut().enumerate() {
+                *q = p[lines.at(line, i)];
+            }
         }
         let mut first = None;
         self.uniform = true;
@@ -221,13 +238,15 @@ impl Row {
         let (vx, vy, vz) = (body(vx, pad, len), body(vy, pad, len), body(vz, pad, len));
         let (sharpness, inverse) = (body(&mut self.sharpness, pad, len), body(&mut self.inverse, pad, len));
         let (depth, valid) = (body(&mut self.depth, pad, len), body(&mut self.valid, pad, len));
-        for (i, (g, v)) in guides.iter().zip(values).enumerate() {
+        for i in 0..len {
+            let k = lines.at(line, i);
+            let (g, v) = (&guides[k], &values[k]);
             [ax[i], ay[i], az[i]] = g.axis;
             [vx[i], vy[i], vz[i]] = *v;
             sharpness[i] = g.sharpness;
             inverse[i] = 1.0 / g.sharpness;
             depth[i] = g.depth;
-            let feeds = feeds.is_none_or(|f| f[i]);
+            let feeds = feeds.is_none_or(|f| f[k]);
             valid[i] = if feeds { g.valid } else { 0.0 };
             if feeds && g.is_valid() {
                 let s = *first.get_or_insert(g.sharpness);
@@ -237,12 +256,13 @@ impl Row {
     }
 }
 
-/// One 1-D gather along every row; with `power` (the inputs' noise powers), also the outputs'.
-fn rows(
+/// One 1-D gather along every line; with `power` (the inputs' noise powers), also the
+/// outputs'. The outputs are line-major: line j's entries from `j * lines.len` on.
+fn lines(
+    lines: Lines,
     guides: &[PackedGuide],
     feeds: Option<&[bool]>,
     sigma_px: &[f32],
-    width: usize,
     values: &[[f32; 3]],
     power: Option<&[f32]>,
     o: &PackedOptions,
@@ -250,26 +270,36 @@ fn rows(
     #[cfg(target_arch = "x86_64")]
     let avx2 = std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma");
     let pad = o.max_radius.max(1);
-    let mut out = values.to_vec();
-    // Unread (and left at 0) when no power is asked for.
-    let mut out_power = power.map_or_else(|| vec![0.0; values.len()], |p| p.to_vec());
-    let chunks = out.par_chunks_mut(width).zip(out_power.par_chunks_mut(width));
-    chunks.enumerate().for_each_init(Row::default, |row, (y, (out_row, power_row))| {
-        let span = y * width..(y + 1) * width;
-        let s_row = &sigma_px[span.clone()];
-        if s_row.iter().all(|&s| !(s > 0.0)) {
-            return;
-        }
-        let feeds = feeds.map(|f| &f[span.clone()]);
-        row.load(&guides[span.clone()], feeds, &values[span.clone()], power.map(|p| &p[span]), pad);
-        let power_row = power.is_some().then_some(power_row);
-        #[cfg(target_arch = "x86_64")]
-        if avx2 {
-            // SAFETY: the CPU has AVX2 and FMA.
-            return unsafe { row_avx2(row, s_row, out_row, power_row, pad, o) };
-        }
-        row_generic(row, s_row, out_row, power_row, pad, o)
-    });
+    let len = lines.len.max(1);
+    let mut out = vec![[0.0f32; 3]; values.len()];
+    // Unwritten (its zero pages never touched) when no power is asked for.
+    let mut out_power = vec![0.0f32; values.len()];
+    let chunks = out.par_chunks_mut(len).zip(out_power.par_chunks_mut(len));
+    chunks.enumerate().for_each_init(
+        || (Row::default(), Vec::new()),
+        |(row, s_line), (j, (out_line, power_line))| {
+            let mut power_line = power.is_some().then_some(power_line);
+            // Centres that are not gathered keep their values.
+            for (i, v) in out_line.iter_mut().enumerate() {
+                *v = values[lines.at(j, i)];
+            }
+            if let (Some(p), Some(q)) = (power, power_line.as_deref_mut()) {
+                q.iter_mut().enumerate().for_each(|(i, q)| *q = p[lines.at(j, i)]);
+            }
+            s_line.clear();
+            s_line.extend((0..lines.len).map(|i| sigma_px[lines.at(j, i)]));
+            if s_line.iter().all(|&s| !(s > 0.0)) {
+                return;
+            }
+            row.load(lines, j, guides, feeds, values, power, pad);
+            #[cfg(target_arch = "x86_64")]
+            if avx2 {
+                // SAFETY: the CPU has AVX2 and FMA.
+                return unsafe { row_avx2(row, s_line, out_line, power_line, pad, o) };
+            }
+            row_generic(row, s_line, out_line, power_line, pad, o)
+        },
+    );
     (out, power.map(|_| out_power))
 }
 
