@@ -170,11 +170,14 @@ impl Lines {
 }
 
 /// Centres are gathered this many at a time, one per lane (fixed-size arrays the compiler
-/// vectorises).
+/// vectorises): 8 fill AVX2's registers, 16 AVX-512's. Each centre's sums run over its own taps
+/// in the same order at either width (a lane's taps past its radius add exact zeros), so the
+/// result does not depend on the CPU (`the_lane_width_does_not_change_a_bit`).
 const LANES: usize = 8;
+const WIDE_LANES: usize = 16;
 
 /// One row in structure-of-arrays form, padded with invalid pixels (weight 0) so that the taps
-/// of every block of `LANES` centres lie inside it.
+/// of every block of `WIDE_LANES` centres lie inside it.
 #[derive(Default)]
 struct Row {
     axis: [Vec<f32>; 3],
@@ -191,8 +194,8 @@ struct Row {
 }
 
 impl Row {
-    /// Loads line `line` of `guides` and `values` after `pad` invalid pixels, with `pad + LANES`
-    /// after, a pixel valid where its guide is and `feeds` (if given) holds. Only the padding is
+    /// Loads line `line` of `guides` and `values` after `pad` invalid pixels, with
+    /// `pad + WIDE_LANES` after, a pixel valid where its guide is and `feeds` (if given) holds. Only the padding is
     /// filled: the row's own entries are each written once.
     #[allow(clippy::too_many_arguments)]
     fn load(
@@ -205,7 +208,7 @@ impl Row {
         power: Option<&[f32]>,
         pad: usize,
     ) {
-        let (len, n) = (lines.len, lines.len + 2 * pad + LANES);
+        let (len, n) = (lines.len, lines.len + 2 * pad + WIDE_LANES);
         let pad_with = |v: &mut Vec<f32>, x: f32| {
             v.resize(n, x);
             v.truncate(n);
@@ -269,6 +272,8 @@ fn lines(
 ) -> (Vec<[f32; 3]>, Option<Vec<f32>>) {
     #[cfg(target_arch = "x86_64")]
     let avx2 = std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma");
+    #[cfg(target_arch = "x86_64")]
+    let avx512 = avx2 && std::arch::is_x86_feature_detected!("avx512f");
     let pad = o.max_radius.max(1);
     let len = lines.len.max(1);
     let mut out = vec![[0.0f32; 3]; values.len()];
@@ -293,11 +298,16 @@ fn lines(
             }
             row.load(lines, j, guides, feeds, values, power, pad);
             #[cfg(target_arch = "x86_64")]
+            if avx512 {
+                // SAFETY: the CPU has AVX-512F, AVX2 and FMA.
+                return unsafe { row_avx512(row, s_line, out_line, power_line, pad, o) };
+            }
+            #[cfg(target_arch = "x86_64")]
             if avx2 {
                 // SAFETY: the CPU has AVX2 and FMA.
                 return unsafe { row_avx2(row, s_line, out_line, power_line, pad, o) };
             }
-            row_generic(row, s_line, out_line, power_line, pad, o)
+            row_generic::<LANES>(row, s_line, out_line, power_line, pad, o)
         },
     );
     (out, power.map(|_| out_power))
@@ -315,13 +325,28 @@ unsafe fn row_avx2(
     pad: usize,
     o: &PackedOptions,
 ) {
-    row_generic(row, sigma, out, power, pad, o)
+    row_generic::<LANES>(row, sigma, out, power, pad, o)
 }
 
-/// Gathers every centre of one loaded row, `LANES` neighbouring centres at a time; with
+/// # Safety
+/// The CPU must support AVX-512F, AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx2,fma")]
+unsafe fn row_avx512(
+    row: &mut Row,
+    sigma: &[f32],
+    out: &mut [[f32; 3]],
+    power: Option<&mut [f32]>,
+    pad: usize,
+    o: &PackedOptions,
+) {
+    row_generic::<WIDE_LANES>(row, sigma, out, power, pad, o)
+}
+
+/// Gathers every centre of one loaded row, `L` neighbouring centres at a time; with
 /// `power`, writes each gathered centre's noise power there.
 #[inline(always)]
-fn row_generic(
+fn row_generic<const L: usize>(
     row: &mut Row,
     sigma: &[f32],
     out: &mut [[f32; 3]],
@@ -329,19 +354,19 @@ fn row_generic(
     pad: usize,
     o: &PackedOptions,
 ) {
-    for (b, out) in out.chunks_mut(LANES).enumerate() {
-        let x0 = b * LANES;
+    for (b, out) in out.chunks_mut(L).enumerate() {
+        let x0 = b * L;
         let sigma = std::array::from_fn(|l| sigma.get(x0 + l).copied().unwrap_or(0.0));
         let k0 = pad + x0;
         let block = match (row.uniform, o.linear, power.is_some()) {
-            (true, false, false) => gather_block::<true, false, false>(row, k0, sigma, o),
-            (false, false, false) => gather_block::<false, false, false>(row, k0, sigma, o),
-            (true, true, false) => gather_block::<true, true, false>(row, k0, sigma, o),
-            (false, true, false) => gather_block::<false, true, false>(row, k0, sigma, o),
-            (true, false, true) => gather_block::<true, false, true>(row, k0, sigma, o),
-            (false, false, true) => gather_block::<false, false, true>(row, k0, sigma, o),
-            (true, true, true) => gather_block::<true, true, true>(row, k0, sigma, o),
-            (false, true, true) => gather_block::<false, true, true>(row, k0, sigma, o),
+            (true, false, false) => gather_block::<L, true, false, false>(row, k0, sigma, o),
+            (false, false, false) => gather_block::<L, false, false, false>(row, k0, sigma, o),
+            (true, true, false) => gather_block::<L, true, true, false>(row, k0, sigma, o),
+            (false, true, false) => gather_block::<L, false, true, false>(row, k0, sigma, o),
+            (true, false, true) => gather_block::<L, true, false, true>(row, k0, sigma, o),
+            (false, false, true) => gather_block::<L, false, false, true>(row, k0, sigma, o),
+            (true, true, true) => gather_block::<L, true, true, true>(row, k0, sigma, o),
+            (false, true, true) => gather_block::<L, false, true, true>(row, k0, sigma, o),
         };
         for (l, out) in out.iter_mut().enumerate() {
             if let Some((v, p)) = block[l] {
@@ -354,39 +379,38 @@ fn row_generic(
     }
 }
 
-/// The gathered values of the `LANES` centres from padded position `k0` with widths `sigma`,
+/// The gathered values of the `L` centres from padded position `k0` with widths `sigma`,
 /// one centre per lane, so that the taps are the loop and no sum crosses lanes; None for a
 /// centre that keeps its value (invalid, or a width of 0). Each centre weighs the taps within
 /// its own radius ceil(3 sigma); the loop runs to the largest.
 #[inline(always)]
-fn gather_block<const UNIFORM: bool, const LINEAR: bool, const POWER: bool>(
+fn gather_block<const L: usize, const UNIFORM: bool, const LINEAR: bool, const POWER: bool>(
     row: &Row,
     k0: usize,
-    sigma: [f32; LANES],
+    sigma: [f32; L],
     o: &PackedOptions,
-) -> [Option<([f32; 3], f32)>; LANES] {
-    let lane = |v: &Vec<f32>, at: usize| -> [f32; LANES] { v[at..at + LANES].try_into().expect("LANES taps") };
+) -> [Option<([f32; 3], f32)>; L] {
+    let lane = |v: &Vec<f32>, at: usize| -> [f32; L] { v[at..at + L].try_into().expect("L taps") };
     let max_radius = o.max_radius.max(1);
-    let filtered: [bool; LANES] = std::array::from_fn(|l| row.valid[k0 + l] != 0.0 && sigma[l] > 0.0);
-    let radius: [usize; LANES] =
+    let filtered: [bool; L] = std::array::from_fn(|l| row.valid[k0 + l] != 0.0 && sigma[l] > 0.0);
+    let radius: [usize; L] =
         std::array::from_fn(|l| if filtered[l] { ((3.0 * sigma[l]).ceil() as usize).clamp(1, max_radius) } else { 0 });
     let reach = radius.iter().copied().max().unwrap_or(0);
     if reach == 0 {
-        return [None; LANES];
+        return [None; L];
     }
-    let r_f: [f32; LANES] = std::array::from_fn(|l| radius[l] as f32);
-    let inv_2s2: [f32; LANES] =
-        std::array::from_fn(|l| if filtered[l] { 1.0 / (2.0 * sigma[l] * sigma[l]) } else { 0.0 });
+    let r_f: [f32; L] = std::array::from_fn(|l| radius[l] as f32);
+    let inv_2s2: [f32; L] = std::array::from_fn(|l| if filtered[l] { 1.0 / (2.0 * sigma[l] * sigma[l]) } else { 0.0 });
     let (cx, cy, cz) = (lane(&row.axis[0], k0), lane(&row.axis[1], k0), lane(&row.axis[2], k0));
     let (c_s, c_inv, c_depth) = (lane(&row.sharpness, k0), lane(&row.inverse, k0), lane(&row.depth, k0));
-    let inv_2z2: [f32; LANES] =
+    let inv_2z2: [f32; L] =
         std::array::from_fn(|l| 1.0 / (2.0 * o.sigma_z2_relative * c_depth[l] * c_depth[l]).max(f32::MIN_POSITIVE));
     let beta = o.beta;
-    let (mut sum, mut wsum) = ([[0.0f32; LANES]; 3], [0.0f32; LANES]);
+    let (mut sum, mut wsum) = ([[0.0f32; L]; 3], [0.0f32; L]);
     // The linear fit's moments: sums of w d, w d^2 and w d v.
-    let (mut s1, mut s2, mut sdv) = ([0.0f32; LANES], [0.0f32; LANES], [[0.0f32; LANES]; 3]);
+    let (mut s1, mut s2, mut sdv) = ([0.0f32; L], [0.0f32; L], [[0.0f32; L]; 3]);
     // The noise power's: sums of w^2 P, w^2 d P and w^2 d^2 P.
-    let mut pw = [[0.0f32; LANES]; 3];
+    let mut pw = [[0.0f32; L]; 3];
     for i in 0..=2 * reach {
         // Every lane's tap at offset d = i - reach from its own centre.
         let at = k0 + i - reach;
@@ -395,10 +419,12 @@ fn gather_block<const UNIFORM: bool, const LINEAR: bool, const POWER: bool>(
         let (s, inv, depth, valid) =
             (lane(&row.sharpness, at), lane(&row.inverse, at), lane(&row.depth, at), lane(&row.valid, at));
         let (vx, vy, vz) = (lane(&row.value[0], at), lane(&row.value[1], at), lane(&row.value[2], at));
-        let tap_power = if POWER { lane(&row.power, at) } else { [0.0; LANES] };
-        for l in 0..LANES {
-            // The screen term; past the lane's radius, minus infinity (weight 0).
-            let screen = if d.abs() <= r_f[l] { -d * d * inv_2s2[l] } else { f32::NEG_INFINITY };
+        let tap_power = if POWER { lane(&row.power, at) } else { [0.0; L] };
+        for l in 0..L {
+            // The screen term; past the lane's radius the weight is 0 exactly (`exp_neg` never
+            // returns 0), so that a block's reach, the widest of its lanes, changes no lane's sums.
+            let screen = -d * d * inv_2s2[l];
+            let inside = if d.abs() <= r_f[l] { valid[l] } else { 0.0 };
             let dot = cx[l] * ax[l] + cy[l] * ay[l] + cz[l] * az[l];
             let dz = c_depth[l] - depth[l];
             let lobe = if UNIFORM {
@@ -408,7 +434,7 @@ fn gather_block<const UNIFORM: bool, const LINEAR: bool, const POWER: bool>(
                 ln_lobe((c_s[l], s[l]), (c_inv[l], inv[l]), dot, beta)
             };
             let ln_w = screen - dz * dz * inv_2z2[l] + lobe;
-            let w = exp_neg(-ln_w) * valid[l];
+            let w = exp_neg(-ln_w) * inside;
             sum[0][l] += w * vx[l];
             sum[1][l] += w * vy[l];
             sum[2][l] += w * vz[l];
@@ -686,6 +712,49 @@ mod tests {
             v
         };
         assert_eq!(run(1), run(2));
+    }
+
+    /// The 16-lane blocks (AVX-512) give every row, bit for bit, what the 8-lane ones (AVX2 and
+    /// the portable path) give, with mixed and with all-diffuse lobes (both weight paths), with
+    /// and without the linear fit and the noise power: frames do not depend on the CPU.
+    #[test]
+    fn the_lane_width_does_not_change_a_bit() {
+        let mut rng = Rng(17);
+        let (guides, values) = scene(&mut rng);
+        let diffuse_only: Vec<Guide> = guides.iter().map(|g| Guide { lobe: diffuse(g.normal), ..*g }).collect();
+        let values: Vec<[f32; 3]> = values.iter().map(|v| v.map(|x| x as f32)).collect();
+        let powers: Vec<f32> = (0..values.len()).map(|_| 0.5 + rng.f()).collect();
+        let (mut uniform_rows, mut rows) = (0, 0);
+        for guides in [&guides, &diffuse_only] {
+            let (packed, sigma) = packed_with_widths(guides);
+            for (linear, with_power) in [(false, false), (true, false), (false, true), (true, true)] {
+                let o = PackedOptions { beta: 20.0, sigma_z2_relative: 0.01, max_radius: 16, linear };
+                let power = with_power.then_some(&powers[..]);
+                for j in 0..30 {
+                    let (lines, pad) = (Lines::rows(40), 16);
+                    let mut row = Row::default();
+                    row.load(lines, j, &packed, None, &values, power, pad);
+                    let (uniform, span) = (row.uniform, j * 40..(j + 1) * 40);
+                    let run = |wide: bool| {
+                        let (mut out, mut p) = (values[span.clone()].to_vec(), powers[span.clone()].to_vec());
+                        let p_out = with_power.then_some(&mut p[..]);
+                        let mut row = Row::default();
+                        row.load(lines, j, &packed, None, &values, power, pad);
+                        if wide {
+                            row_generic::<WIDE_LANES>(&mut row, &sigma[span.clone()], &mut out, p_out, pad, &o);
+                        } else {
+                            row_generic::<LANES>(&mut row, &sigma[span.clone()], &mut out, p_out, pad, &o);
+                        }
+                        (out, p)
+                    };
+                    let (narrow, wide) = (run(false), run(true));
+                    assert_eq!(narrow, wide, "row {j}, uniform {uniform}, linear {linear}, power {with_power}");
+                    assert_ne!(narrow.0, values[span].to_vec(), "row {j}: nothing gathered");
+                    (uniform_rows, rows) = (uniform_rows + usize::from(uniform), rows + 1);
+                }
+            }
+        }
+        assert!(uniform_rows > 0 && uniform_rows < rows, "{uniform_rows} of {rows} rows of equal sharpness");
     }
 
     /// Limiting the pixels that feed by a mask gives, bit for bit, what the gather gives over
