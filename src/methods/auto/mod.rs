@@ -260,6 +260,11 @@ impl AutoStrategy {
             .collect()
     }
 
+    /// Each pixel's samples so far.
+    fn taken(&self) -> Vec<u32> {
+        self.sums.par_iter().map(|s| s.taken).collect()
+    }
+
     /// Brings the slopes (if analysis samples were added since they were found) and each
     /// light's visibility widths at the pixels' `taken` samples up to date.
     fn update_shadow_widths(&mut self, ctx: &PassContext, taken: &[u32]) {
@@ -377,7 +382,7 @@ impl AutoStrategy {
         let mut width_px = vec![0.0f32; n];
         let mut components = Vec::new();
         let max_into = |acc: &mut [f32], w: &[f32]| acc.iter_mut().zip(w).for_each(|(a, b)| *a = a.max(*b));
-        // What the parts below read of the pixels' sums, taken from them once.
+        // What the parts below read of the pixels' sums.
         let diffuse_guides: Vec<PackedGuide> =
             (self.sums.par_iter().zip(&self.diffuse_guides)).map(|(s, g)| straddling_guide(g, s)).collect();
         let spp: Vec<f32> = self.sums.par_iter().map(|s| s.taken as f32).collect();
@@ -431,7 +436,7 @@ impl AutoStrategy {
             .iter()
             .map(|&glossy| {
                 let at = |p: usize| self.indirect[p].component(glossy);
-                let (mut light, (feeds, taken)): Unzipped<[f32; 3], (Vec<bool>, Vec<u32>)> = (0..n)
+                let (mut light, (feeds, taken)): (Vec<_>, (Vec<_>, Vec<_>)) = (0..n)
                     .into_par_iter()
                     .map(|p| (mean(at(p).light, at(p).surface).map(|x| x as f32), (at(p).surface > 0, at(p).n)))
                     .unzip();
@@ -546,9 +551,6 @@ fn straddling_guide(g: &PackedGuide, s: &PixelSums) -> PackedGuide {
     }
 }
 
-/// Two per-pixel vectors built in one parallel pass (`unzip`).
-type Unzipped<A, B> = (Vec<A>, B);
-
 /// One indirect component's untextured light, filtered at its width and (the diffuse light,
 /// from `narrow_from_spp` on) at the narrow scale.
 struct IndirectPart {
@@ -596,7 +598,7 @@ impl Strategy for AutoStrategy {
             self.slopes_stale = true;
             self.reflectors_stale = !self.indirect.is_empty();
         }
-        let taken: Vec<u32> = self.sums.par_iter().map(|s| s.taken).collect();
+        let taken = self.taken();
         // The visibility widths: this pass's frame (if composed) filters with them, and the
         // next pass's penumbra marks read them (a pass the budget cut is the last: it marks
         // nothing). The passes between the first and the one that completes the analysis
@@ -623,7 +625,7 @@ impl Strategy for AutoStrategy {
             tracing::trace!(seconds = t.elapsed().as_secs_f64(), "auto: reflectors");
         }
         if !self.shadow_widths_current {
-            let taken: Vec<u32> = self.sums.par_iter().map(|s| s.taken).collect();
+            let taken = self.taken();
             self.update_shadow_widths(ctx, &taken);
         }
         let mut frame = self.compose(ctx, &self.shadow_widths);

@@ -15,7 +15,7 @@ use std::sync::Arc;
 pub(super) struct Widths {
     gbuffer: Arc<GBuffer>,
     /// Where the projected pixel sizes are seen from; each paper's options say whether they
-    /// count foreshortening (`GSample::projected_size`, found as read: cheaper than a buffer).
+    /// count foreshortening (`GSample::projected_size`, found as the widths read them).
     camera: Vec3,
     /// Per pixel, the mean nearest and farthest reflector of its neighbourhood's analysis
     /// samples (the pixel itself left out); None where none was seen.
