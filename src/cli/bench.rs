@@ -279,6 +279,21 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
                             serde_json::json!({"rays": set.origins.len(), "hits": hits, "rays_per_second_1": r1, "rays_per_second_2": r2}),
                         );
                     }
+                    // The default tree again, the rays given in runs of a packet's size.
+                    let (p1, hits) = rays::measure_packets(s, set, 1, repeats)?;
+                    let (p2, _) = rays::measure_packets(s, set, 2, repeats)?;
+                    println!(
+                        "| {name} | {} | {} | {} | wedge default, packets | {:.2} | {:.2} | {hits} |",
+                        s.triangle_count(),
+                        set.origins.len(),
+                        set.kind.name(),
+                        p1 / 1e6,
+                        p2 / 1e6
+                    );
+                    results[0].insert(
+                        format!("{}_packets", set.kind.name()),
+                        serde_json::json!({"rays": set.origins.len(), "hits": hits, "rays_per_second_1": p1, "rays_per_second_2": p2}),
+                    );
                     ratios.push(format!(
                         "| {name} | {} | {:.2} | {:.2} | {:.2} |",
                         set.kind.name(),

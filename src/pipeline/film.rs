@@ -1,9 +1,10 @@
 //! Per-pixel running estimates (f64 sums) and the parallel loop that adds samples to them.
 use super::job::{RenderError, RenderJob, StopCheck};
+use crate::render::camera_samples::CameraSamples;
 use crate::render::huge_pages::filled;
 use crate::render::integrator::sample_from;
-use crate::render::sampler::PixelSampler;
 use crate::render::scene::Scene;
+use crate::render::wide_bvh::MAX_PACKET;
 use rayon::prelude::*;
 
 /// Rows per unit of parallel work. Stop requests are checked before every pixel.
@@ -154,27 +155,31 @@ impl Film {
                 t.rays += 1;
                 scene.intersect(cam.position, centre, 0.0)
             });
-            for _ in 0..n {
-                let mut sampler = PixelSampler::new(seed, index as u32, px.taken);
-                px.taken += 1;
-                let j = sampler.next_2d();
-                let (dir, hit) = match centre_hit {
-                    Some(hit) => (centre, hit),
-                    None => {
-                        let dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
-                        t.rays += 1;
-                        (dir, scene.intersect(cam.position, dir, 0.0))
+            // The pixel's camera rays go to the BVH a packet at a time (`CameraSamples`). Each
+            // sample's numbers and path are its own, and the sums take the samples in order, as
+            // one at a time would.
+            let mut done = 0;
+            let mut c = CameraSamples::default();
+            while done < n {
+                let m = (n - done).min(MAX_PACKET as u32) as usize;
+                c.set(cam, seed, (x, y), index as u32, px.taken, m, !pixel_centers);
+                match centre_hit {
+                    Some(hit) => c.hits[..m].fill(hit),
+                    None => t.rays += c.trace(scene, cam.position),
+                }
+                px.taken += m as u32;
+                done += m as u32;
+                for i in 0..m {
+                    let p = sample_from(scene, c.hits[i], -c.dirs[i], integrand, bounces, &mut c.samplers[i]);
+                    t.rays += p.rays as u64;
+                    if p.radiance.is_finite() {
+                        for c in 0..3 {
+                            px.sum[c] += p.radiance[c] as f64;
+                        }
+                        px.n += 1;
+                    } else {
+                        t.dropped += 1;
                     }
-                };
-                let p = sample_from(scene, hit, -dir, integrand, bounces, &mut sampler);
-                t.rays += p.rays as u64;
-                if p.radiance.is_finite() {
-                    for c in 0..3 {
-                        px.sum[c] += p.radiance[c] as f64;
-                    }
-                    px.n += 1;
-                } else {
-                    t.dropped += 1;
                 }
             }
         })

@@ -4,7 +4,7 @@
 //! default: 8 children per node on CPUs with AVX2, else 4) or as obvhs's compressed 8-wide BVH,
 //! kept so that the ray benchmark can compare them on the same rays.
 pub use super::wide_bvh::gamma;
-use super::wide_bvh::{LeafCost, WideBvh, Width};
+use super::wide_bvh::{LeafCost, WideBvh, Width, MAX_PACKET};
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::{
     bvh2::builder::build_bvh2_from_tris,
@@ -184,6 +184,11 @@ fn canonical(d: Vec3) -> Vec3 {
     d + Vec3::ZERO
 }
 
+/// Up to `MAX_PACKET` rays with `canonical` directions, padded.
+fn canonical_rays(rays: &[(Vec3, Vec3)]) -> [(Vec3, Vec3); MAX_PACKET] {
+    std::array::from_fn(|i| rays.get(i).map_or((Vec3::ZERO, Vec3::Z), |&(o, d)| (o, canonical(d))))
+}
+
 /// A ray-surface intersection, before shading.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
@@ -251,6 +256,44 @@ impl Geometry {
                 // ray_traverse_miss returns true when NOT occluded.
                 !bvh.ray_traverse_miss(ray, |r, id| self.tris[id].intersect(r))
             }
+        }
+    }
+
+    /// The closest hit of each ray (origin, direction) with t in [tmin, tmax], into `out`: what
+    /// `intersect` gives each, coherent rays traced together (`WideBvh::intersect_many`).
+    pub fn intersect_many(&self, rays: &[(Vec3, Vec3)], tmin: f32, tmax: f32, out: &mut [Option<Hit>]) {
+        assert_eq!(rays.len(), out.len(), "one hit per ray");
+        let Some(Accel::Wide(bvh)) = self.bvh.as_ref() else {
+            for (o, &(origin, dir)) in out.iter_mut().zip(rays) {
+                *o = self.intersect(origin, dir, tmin, tmax);
+            }
+            return;
+        };
+        for (rays, out) in rays.chunks(MAX_PACKET).zip(out.chunks_mut(MAX_PACKET)) {
+            let n = rays.len();
+            let rays: [(Vec3, Vec3); MAX_PACKET] = canonical_rays(rays);
+            let mut hits = [None; MAX_PACKET];
+            bvh.intersect_many(&rays[..n], tmin, tmax, &mut hits[..n]);
+            for (o, h) in out.iter_mut().zip(hits) {
+                *o = h.map(|h| Hit { t: h.t, slot: h.slot, b1: h.u, b2: h.v });
+            }
+        }
+    }
+
+    /// Whether something lies on each segment origin + t dir, t in [tmin, tmax[i]], into `out`:
+    /// what `occluded` says for each, coherent rays traced together.
+    pub fn occluded_many(&self, rays: &[(Vec3, Vec3)], tmin: f32, tmax: &[f32], out: &mut [bool]) {
+        assert!(rays.len() == out.len() && rays.len() == tmax.len(), "one answer and one end per ray");
+        let Some(Accel::Wide(bvh)) = self.bvh.as_ref() else {
+            for ((o, &(origin, dir)), &end) in out.iter_mut().zip(rays).zip(tmax) {
+                *o = self.occluded(origin, dir, tmin, end);
+            }
+            return;
+        };
+        let chunks = rays.chunks(MAX_PACKET).zip(tmax.chunks(MAX_PACKET)).zip(out.chunks_mut(MAX_PACKET));
+        for ((rays, ends), out) in chunks {
+            let rays: [(Vec3, Vec3); MAX_PACKET] = canonical_rays(rays);
+            bvh.occluded_many(&rays[..out.len()], tmin, ends, out);
         }
     }
 

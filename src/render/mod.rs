@@ -1,13 +1,15 @@
 //! The tracer and filter core. Knows nothing of gRPC, files, jobs or methods: everything here
 //! imports only within `render`.
 //!
-//! One file per concept: `camera` (the view), `sampler`, `geometry` (triangles and BVH;
+//! One file per concept: `camera` (the view; `camera_samples`, a pixel's camera rays a packet
+//! at a time), `sampler`, `geometry` (triangles and BVH;
 //! `wide_bvh` its traversal), `texture`, `material`, `light` (with `environment` and its `distribution`, and `far_rule`, a Gaussian light's quadrature), `scene` (the compiled scene, no
 //! camera), `integrator` (radiance along a path), `gbuffer` (one primary hit per pixel), `aovs` (denoiser inputs) and
 //! `filter` (the G-buffer-guided Gaussian gather the methods filter with); `huge_pages`
 //! allocates large arrays.
 pub mod aovs;
 pub mod camera;
+pub mod camera_samples;
 pub mod distribution;
 pub mod environment;
 pub mod far_rule;

@@ -12,6 +12,7 @@ use super::camera::Camera;
 use super::geometry::{gamma, BvhLayout, BvhQuality, Geometry, GeometryBuilder, Hit, NONE};
 use super::light::{EnvironmentLight, Light, RectLight};
 use super::material::Material;
+use super::wide_bvh::{MAX_PACKET, MIN_PACKET};
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
 
@@ -292,6 +293,29 @@ impl Scene {
     #[inline]
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32) -> Option<Surface> {
         self.geometry.intersect(origin, dir, tmin, f32::INFINITY).map(|h| self.surface(&h, dir))
+    }
+
+    /// The closest surface along each ray from `origin` in `dirs[i]`, into `out`: what
+    /// `intersect` finds for each, the rays traced together where they are coherent (a pixel's
+    /// camera rays; `Geometry::intersect_many`). At most `MAX_PACKET` rays.
+    pub fn intersect_many(&self, origin: Vec3, dirs: &[Vec3], tmin: f32, out: &mut [Option<Surface>]) {
+        assert!(dirs.len() == out.len() && dirs.len() <= MAX_PACKET, "one surface per ray, at most a packet");
+        let n = dirs.len();
+        if n < MIN_PACKET {
+            for (o, &d) in out.iter_mut().zip(dirs) {
+                *o = self.intersect(origin, d, tmin);
+            }
+            return;
+        }
+        let mut rays = [(origin, Vec3::Z); MAX_PACKET];
+        for (r, &d) in rays.iter_mut().zip(dirs) {
+            r.1 = d;
+        }
+        let mut hits = [None; MAX_PACKET];
+        self.geometry.intersect_many(&rays[..n], tmin, f32::INFINITY, &mut hits[..n]);
+        for ((o, h), &d) in out.iter_mut().zip(hits).zip(dirs) {
+            *o = h.map(|h| self.surface(&h, d));
+        }
     }
 
     fn surface(&self, h: &Hit, dir: Vec3) -> Surface {

@@ -58,10 +58,12 @@ use crate::pipeline::film::{mean, Tally};
 use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
 use crate::pipeline::strategy::{PassContext, Sampled, Strategy};
+use crate::render::camera_samples::CameraSamples;
 use crate::render::gbuffer::GBuffer;
 use crate::render::huge_pages::{collected, filled};
 use crate::render::light::Light;
 use crate::render::sampler::hash_words;
+use crate::render::wide_bvh::MAX_PACKET;
 use rayon::prelude::*;
 use sample::{IndirectSums, LightSums, PixelSums, Sampling};
 use scales::Composed;
@@ -331,17 +333,26 @@ impl AutoStrategy {
         let trace_row =
             |y: usize, row: &mut [PixelSums], light_row: &mut [LightSums], mut ind: Option<&mut [IndirectSums]>| {
                 let (mut rays, mut dropped) = (0u64, 0u64);
+                let mut c = CameraSamples::default();
                 for (x, px) in row.iter_mut().enumerate() {
                     if ctx.stop.should_stop() {
                         return Tally { rays, dropped, complete: false };
                     }
                     let lights = &mut light_row[x * nl..(x + 1) * nl];
                     let target = count(y * w + x);
+                    // The pixel's camera rays a packet at a time, each sample then traced on.
                     while px.taken < target {
-                        let indirect = ind.as_deref_mut().map(|r| &mut r[x]);
-                        let (r, d) = sampling.run((x, y), seed, px, lights, indirect);
-                        rays += r;
-                        dropped += d;
+                        let m = ((target - px.taken) as usize).min(MAX_PACKET);
+                        let pixel = (y * w + x) as u32;
+                        let jitter = !ctx.job.pixel_centers;
+                        c.set(&ctx.job.view, seed, (x, y), pixel, px.taken, m, jitter);
+                        c.trace(ctx.scene, ctx.job.view.position);
+                        for i in 0..m {
+                            let indirect = ind.as_deref_mut().map(|r| &mut r[x]);
+                            let (r, d) = sampling.run(px, lights, indirect, c.samplers[i], c.dirs[i], c.hits[i]);
+                            rays += r;
+                            dropped += d;
+                        }
                     }
                 }
                 Tally { rays, dropped, complete: true }

@@ -220,26 +220,26 @@ pub(super) struct Sampling<'a> {
 }
 
 impl Sampling<'_> {
-    /// Traces sample `px.taken` of pixel (x, y) into the sums (`indirect`: the pixel's indirect
-    /// sums, given exactly when the render has bounces). Returns (rays, dropped).
+    /// Adds sample `px.taken` of pixel (x, y) into the sums (`indirect`: the pixel's indirect
+    /// sums, given exactly when the render has bounces), from its camera ray: the sampler after
+    /// the jitter pair, the ray's direction and its hit (`CameraSamples`). Returns (rays,
+    /// dropped), the camera ray counted.
+    #[allow(clippy::too_many_arguments)]
     pub fn run(
         &self,
-        (x, y): (usize, usize),
-        seed: u64,
         px: &mut PixelSums,
         lights: &mut [LightSums],
         indirect: Option<&mut IndirectSums>,
+        mut sampler: PixelSampler,
+        dir: Vec3,
+        hit: Option<Surface>,
     ) -> (u64, u64) {
         let (scene, job) = (self.scene, self.job);
         let index = px.taken;
         px.taken += 1;
-        let mut sampler = PixelSampler::new(seed, (y * job.width() as usize + x) as u32, index);
-        let j = sampler.next_2d();
-        let j = if job.pixel_centers { [0.5, 0.5] } else { j };
-        let dir = job.view.direction(x as f32 + j[0], y as f32 + j[1]);
         debug_assert_eq!(indirect.is_some(), job.bounces > 0, "indirect sums exactly with bounces");
         let r_due = self.r_due(index, px.mixed);
-        let Some(hit) = scene.intersect(job.view.position, dir, 0.0) else {
+        let Some(hit) = hit else {
             px.note_seen(index, self.r_block, None);
             // r's mean counts the samples that see nothing (or a light, or a black surface)
             // as zeros: the pixel's share of the surface the light falls on.

@@ -9,10 +9,13 @@
 //! test gives the entry distance of all children of a node; they are visited nearest first.
 //! Compared with obvhs's own compressed 8-wide traversal (CWBVH: quantised boxes, decoded per
 //! node, designed for GPUs), this spends fewer instructions per node on a CPU.
+mod lanes;
 mod node;
+mod packet;
 mod refit;
 mod simd;
 mod tri4;
+pub use packet::{PacketWidth, MAX_PACKET, MIN_PACKET};
 pub use tri4::gamma;
 
 use glam::Vec3;

@@ -13,7 +13,7 @@ pub const NO_CHILD: u32 = u32::MAX;
 /// Exit distances are scaled up by 1 + 2 gamma(3) (Ize 2013, "Robust BVH Ray Traversal"), so that
 /// rounding in (plane - origin) * inverse never culls a box the ray touches, e.g. at the shared
 /// edge of two flat boxes.
-const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON / 2.0) / (1.0 - 3.0 * f32::EPSILON / 2.0);
+pub(super) const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON / 2.0) / (1.0 - 3.0 * f32::EPSILON / 2.0);
 
 /// Per-ray constants of the slab test: for each axis, which of `b[0]`/`b[1]` holds the near
 /// plane, the origin and the inverse direction.
@@ -45,6 +45,8 @@ pub trait WideNode {
     /// Child `lane`'s box (minimum, maximum); empty lanes give an empty box.
     fn lane_box(&self, lane: usize) -> (Vec3, Vec3);
     fn set_lane_box(&mut self, lane: usize, lo: Vec3, hi: Vec3);
+    /// The children's minima (`side` 0) or maxima (1) along `axis`, one per lane.
+    fn plane(&self, side: usize, axis: usize) -> &[f32];
     /// Lanes per node.
     const LANES: usize;
 }
@@ -95,6 +97,12 @@ impl WideNode for Node4 {
                 self.b[s][axis] = F4::new(a);
             }
         }
+    }
+
+    #[inline(always)]
+    fn plane(&self, side: usize, axis: usize) -> &[f32] {
+        // SAFETY: an F4 is four f32 in memory (an __m128, or an array elsewhere).
+        unsafe { std::slice::from_raw_parts(&self.b[side][axis] as *const F4 as *const f32, 4) }
     }
 
     const LANES: usize = 4;
@@ -167,6 +175,12 @@ mod eight {
                     self.b[s][axis] = unsafe { std::mem::transmute::<[f32; 8], __m256>(a) };
                 }
             }
+        }
+
+        #[inline(always)]
+        fn plane(&self, side: usize, axis: usize) -> &[f32] {
+            // SAFETY: an __m256 is eight f32 in memory; reading them needs no AVX instruction.
+            unsafe { std::slice::from_raw_parts(&self.b[side][axis] as *const __m256 as *const f32, 8) }
         }
 
         const LANES: usize = 8;

@@ -377,3 +377,77 @@ fn moved_triangles_are_found_where_they_went_and_not_where_they_were() {
         tris.clear();
     }
 }
+
+/// The packet widths this CPU can trace `bvh` with.
+fn packet_widths(bvh: &WideBvh) -> Vec<PacketWidth> {
+    let mut widths = vec![PacketWidth::Single];
+    if bvh.width() == Width::Eight {
+        widths.push(PacketWidth::Eight);
+        if bvh.packet_width() == PacketWidth::Sixteen {
+            widths.push(PacketWidth::Sixteen);
+        }
+    }
+    widths
+}
+
+/// Fans of rays from one point into a narrow cone around a triangle (as a pixel's camera rays
+/// leave the camera), `per_fan` rays each.
+fn fans(rng: &mut Rng, tris: &[[Vec3; 3]], fans: usize, per_fan: usize, spread: f32) -> Vec<(Vec3, Vec3)> {
+    let mut rays = Vec::new();
+    for _ in 0..fans {
+        let o = rng.v() * 6.0;
+        let p = tris[(rng.f() * tris.len() as f32) as usize % tris.len()];
+        let target = (p[0] + p[1] + p[2]) / 3.0;
+        for _ in 0..per_fan {
+            rays.push((o, (target + rng.v() * spread - o).normalize()));
+        }
+    }
+    rays
+}
+
+/// Packets find what each ray finds alone: the same closest distance bit for bit, the same
+/// triangle unless another lies at exactly that distance, the same occlusion. Coherent fans
+/// (one packet each) and rays in every direction (split into groups by direction signs and
+/// dominant axis, small groups traced alone), in packets of 8 and 16 where the CPU has them.
+#[test]
+fn packets_find_what_single_rays_find() {
+    let mut rng = Rng(0x7a3c_51e9);
+    let tris = soup(&mut rng, 1500);
+    let coherent = fans(&mut rng, &tris, 120, 16, 0.05);
+    let mixed: Vec<(Vec3, Vec3)> = random_rays(&mut rng, 700).into_iter().map(|(o, d, _)| (o, d)).collect();
+    let ends: Vec<f32> = (0..coherent.len().max(mixed.len())).map(|_| 0.5 + rng.f() * 12.0).collect();
+    let mut packed = 0;
+    for width in widths() {
+        let (bvh, slots) = build_with(&tris, 8, false, width, Some(LeafCost::default()));
+        for pw in packet_widths(&bvh) {
+            for rays in [&coherent, &mixed] {
+                for tmax in [f32::INFINITY, 4.0] {
+                    let mut got = vec![None; rays.len()];
+                    bvh.intersect_many_as(pw, rays, 0.0, tmax, &mut got);
+                    for (&(o, d), g) in rays.iter().zip(&got) {
+                        let alone = bvh.intersect(o, d, 0.0, tmax);
+                        assert_eq!(g.map(|h| h.t.to_bits()), alone.map(|h| h.t.to_bits()), "{pw:?}: {o} {d}");
+                        if let (Some(g), Some(a)) = (g, alone) {
+                            if g.slot != a.slot {
+                                let other = Tri4::new(&[(slots[g.slot as usize], 0)]);
+                                let h = other.intersect(&Ray4::new(o, d), F4::splat(0.0), F4::splat(tmax));
+                                assert!(h.mask & 1 == 1 && h.t[0] == a.t, "{pw:?}: a tie names slot {}", g.slot);
+                            } else {
+                                assert_eq!((g.u, g.v), (a.u, a.v));
+                            }
+                        }
+                    }
+                    packed += (pw != PacketWidth::Single) as usize;
+                }
+                let mut blocked = vec![false; rays.len()];
+                bvh.occluded_many_as(pw, rays, 0.0, &ends[..rays.len()], &mut blocked);
+                for ((&(o, d), &b), &end) in rays.iter().zip(&blocked).zip(&ends) {
+                    assert_eq!(b, bvh.occluded(o, d, 0.0, end), "{pw:?}: {o} {d} to {end}");
+                }
+            }
+        }
+    }
+    if Width::best() == Width::Eight {
+        assert!(packed > 0, "no packet width was tried");
+    }
+}

@@ -84,6 +84,14 @@ impl Tri4 {
         }
     }
 
+    /// The vertices' coordinates as (vertex, axis, lane), read in place.
+    #[inline(always)]
+    pub fn coordinates(&self) -> &[[[f32; 4]; 3]; 3] {
+        // SAFETY: an F4 is four f32 in memory (an __m128, or an array elsewhere), so `v` is
+        // 3 x 3 x 4 f32 with the same layout.
+        unsafe { &*(&self.v as *const [[F4; 3]; 3] as *const [[[f32; 4]; 3]; 3]) }
+    }
+
     /// The bounds of the used lanes (exact: the vertices the test reads).
     pub fn bounds(&self) -> (Vec3, Vec3) {
         let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
@@ -178,7 +186,7 @@ fn t_error_bound(v: [[F4; 3]; 3], e: [F4; 3], sz: F4, inv: F4) -> F4 {
 }
 
 /// Hits at least this far need no check against the intersection's error bound.
-const NEAR_HIT: f32 = 1e-2;
+pub(super) const NEAR_HIT: f32 = 1e-2;
 
 /// pbrt's gamma(n) = n u / (1 - n u), u = 2^-24: the relative error bound of n roundings.
 pub const fn gamma(n: u32) -> f32 {
