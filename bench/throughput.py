@@ -28,7 +28,7 @@ Not run in CI. Prints Markdown for BENCHMARKS.md ("Throughput").
    few percent slower: the sampler's calls are not inlined). Functions are assigned to stages
    by module: render::sampler -> sampling; wide_bvh, Geometry/Scene intersect and occluded ->
    traversal; render::light, direct_light_of, light_sample_radiance -> light sampling;
-   materials, surface interaction, path loop, camera, film -> shading; the rest -> other.
+   materials, surface interaction, path loop, camera and its samples, film -> shading; the rest -> other.
 Glossy scenes are left out: the converter's glossy BSDF is a scalar Python plugin, whose speed
 says nothing about Mitsuba's.
 """
@@ -53,7 +53,7 @@ STAGES = [
     ("traversal", [r"wide_bvh::", r"Geometry::(intersect|occluded)", r"Scene::(intersect|occluded)", r"obvhs::"]),
     ("light sampling", [r"render::light::", r"direct_light_of", r"light_sample_radiance"]),
     ("shading", [r"render::material::", r"render::frame_basis::", r"render::integrator::", r"render::scene::",
-                 r"render::camera::", r"render::texture::", r"pipeline::film::", r"FnMut<A> for &F>::call_mut",
+                 r"render::camera::", r"render::camera_samples::", r"render::texture::", r"pipeline::film::", r"FnMut<A> for &F>::call_mut",
                  r"sincosf", r"render::geometry::"]),
 ]
 

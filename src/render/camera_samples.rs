@@ -44,8 +44,9 @@ impl CameraSamples {
     ) {
         assert!(len <= MAX_PACKET, "at most a packet of samples");
         self.len = len;
+        let key = PixelSampler::pixel_key(seed, pixel);
         for (i, (sampler, dir)) in self.samplers.iter_mut().zip(&mut self.dirs).take(len).enumerate() {
-            *sampler = PixelSampler::new(seed, pixel, first + i as u32);
+            *sampler = PixelSampler::of_pixel(key, first + i as u32);
             let j = sampler.next_2d();
             let j = if jitter { j } else { [0.5, 0.5] };
             *dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);

@@ -7,6 +7,7 @@ use super::geometry::NONE;
 use super::huge_pages::filled;
 use super::material::Material;
 use super::scene::Scene;
+use super::wide_bvh::MAX_PACKET;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
@@ -93,9 +94,19 @@ impl GBuffer {
                 stopped.store(true, std::sync::atomic::Ordering::Relaxed);
                 return;
             }
-            for (x, px) in row.iter_mut().enumerate() {
-                let dir = cam.direction(x as f32 + 0.5, y as f32 + 0.5);
-                let Some(s) = scene.intersect(cam.position, dir, 0.0) else { continue };
+            // Neighbouring pixels' centre rays go to the BVH together, a packet at a time.
+            let mut dirs = [Vec3::Z; MAX_PACKET];
+            let mut hits = [None; MAX_PACKET];
+            for (i, px) in row.iter_mut().enumerate() {
+                let (x, lane) = (i, i % MAX_PACKET);
+                if lane == 0 {
+                    let n = (w - x).min(MAX_PACKET);
+                    for (k, d) in dirs[..n].iter_mut().enumerate() {
+                        *d = cam.direction((x + k) as f32 + 0.5, y as f32 + 0.5);
+                    }
+                    scene.intersect_many(cam.position, &dirs[..n], 0.0, &mut hits[..n]);
+                }
+                let Some(s) = hits[lane] else { continue };
                 let material = &scene.materials[s.material as usize];
                 let brdf = material.brdf(s.uv);
                 *px = GSample {
@@ -174,6 +185,14 @@ mod tests {
         let kds: std::collections::HashSet<_> =
             g.pixels.iter().filter(|p| p.is_valid()).map(|p| (p.kd.x * 10.0) as i32).collect();
         assert_eq!(kds.len(), 2);
+        // Centre rays go a packet of neighbours at a time; each pixel holds its own ray's hit.
+        for y in 0..cam.height {
+            for x in 0..cam.width {
+                let alone = s.intersect(cam.position, cam.direction(x as f32 + 0.5, y as f32 + 0.5), 0.0);
+                let p = g.at(x, y);
+                assert_eq!(alone.map(|h| h.t.to_bits()), p.is_valid().then_some(p.depth.to_bits()), "pixel {x} {y}");
+            }
+        }
     }
 
     #[test]

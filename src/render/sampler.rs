@@ -140,7 +140,22 @@ impl PixelSampler {
     #[cfg_attr(not(feature = "stage-symbols"), inline)]
     #[cfg_attr(feature = "stage-symbols", inline(never))]
     pub fn new(seed: u64, pixel: u32, index: u32) -> Self {
-        PixelSampler { key: hash_words(&[seed, pixel as u64]), reversed_index: index.reverse_bits(), pair: 0 }
+        Self::of_pixel(Self::pixel_key(seed, pixel), index)
+    }
+
+    /// The scramble key of pixel `pixel` under `seed`, shared by all its samples: computed
+    /// once, it spares a caller that draws many samples of a pixel a hash per sample.
+    #[cfg_attr(not(feature = "stage-symbols"), inline)]
+    #[cfg_attr(feature = "stage-symbols", inline(never))]
+    pub fn pixel_key(seed: u64, pixel: u32) -> u64 {
+        hash_words(&[seed, pixel as u64])
+    }
+
+    /// `new(seed, pixel, index)` from the pixel's `pixel_key(seed, pixel)`.
+    #[cfg_attr(not(feature = "stage-symbols"), inline)]
+    #[cfg_attr(feature = "stage-symbols", inline(never))]
+    pub fn of_pixel(key: u64, index: u32) -> Self {
+        PixelSampler { key, reversed_index: index.reverse_bits(), pair: 0 }
     }
 
     /// The next 2-D point in [0,1)^2. Successive calls use independent scrambles, each stratified
