@@ -1,5 +1,6 @@
 //! A wide BVH (4 or 8 children per node) traced one ray at a time with vector box and triangle
-//! tests, as Embree traces single rays.
+//! tests, as Embree traces single rays, or coherent rays (a pixel's camera rays) as packets of 8
+//! or 16 with one lane per ray (`packet`, on `lanes`).
 //!
 //! obvhs builds the tree (a binary BVH: PLOC and reinsertion, down to single triangles); this
 //! module chooses its leaves (`LeafCost`: the surface area heuristic counting 4-triangle blocks),
