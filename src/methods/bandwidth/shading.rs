@@ -18,9 +18,11 @@ use crate::pipeline::film::{trace_bands, Tally};
 use crate::pipeline::frame::{Frame, FrameStats, ShadingMaps};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
 use crate::pipeline::strategy::{PassContext, Sampled, Strategy};
+use crate::render::camera_samples::CameraSamples;
 use crate::render::geometry::NONE;
 use crate::render::integrator::sample_from;
-use crate::render::sampler::{hash_words, PixelSampler};
+use crate::render::sampler::hash_words;
+use crate::render::wide_bvh::MAX_PACKET;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -211,60 +213,64 @@ impl BandwidthShading {
         trace_bands(&mut self.pixels, w, ctx.stop, |x, y, px, t| {
             let i = y * w + x;
             let centre_object = gbuffer.map_or(NONE, |g| g.pixels[i].object);
-            while px.taken < upto(i) {
-                let index = px.taken;
-                px.taken += 1;
-                let mut sampler = PixelSampler::new(seed, i as u32, index);
-                let j = sampler.next_2d();
-                let (fx, fy) = if job.pixel_centers { (0.5, 0.5) } else { (j[0], j[1]) };
-                let dir = cam.direction(x as f32 + fx, y as f32 + fy);
-                let hit = scene.intersect(cam.position, dir, 0.0);
-                t.rays += 1;
-                let (Some(env), true) = (env, shades) else {
-                    let p = sample_from(scene, hit, -dir, job.integrand, job.bounces, &mut sampler);
-                    t.rays += p.rays as u64;
-                    if p.radiance.is_finite() {
-                        add(&mut px.whole, p.radiance);
-                        px.moments.add_whole(p.radiance.into());
-                        px.n_whole += 1;
-                    } else {
+            // The pixel's camera rays a packet at a time (`CameraSamples`), each sample then
+            // traced on in order.
+            let target = upto(i);
+            let mut camera = CameraSamples::default();
+            while px.taken < target {
+                let m = ((target - px.taken) as usize).min(MAX_PACKET);
+                camera.set(cam, seed, (x, y), i as u32, px.taken, m, !job.pixel_centers);
+                t.rays += camera.trace(scene, cam.position);
+                for k in 0..m {
+                    let index = px.taken;
+                    px.taken += 1;
+                    let (mut sampler, dir, hit) = (camera.samplers[k], camera.dirs[k], camera.hits[k]);
+                    let (Some(env), true) = (env, shades) else {
+                        let p = sample_from(scene, hit, -dir, job.integrand, job.bounces, &mut sampler);
+                        t.rays += p.rays as u64;
+                        if p.radiance.is_finite() {
+                            add(&mut px.whole, p.radiance);
+                            px.moments.add_whole(p.radiance.into());
+                            px.n_whole += 1;
+                        } else {
+                            t.dropped += 1;
+                        }
+                        continue;
+                    };
+                    let terms = sample_terms(scene, env, hit.as_ref(), -dir, job.bounces, &mut sampler);
+                    t.rays += terms.rays as u64;
+                    let same = hit.as_ref().map_or(NONE, |s| s.object) == centre_object;
+                    let shaded_value = match (&hit, same && plan[i].lookups > 0) {
+                        (Some(s), true) => {
+                            let stream = LookupStream { seed: shade_seed, pixel: i as u32, index };
+                            Some(shade(scene, env, s, -dir, plan[i].lookups, stream))
+                        }
+                        _ => None,
+                    };
+                    let finite = terms.rest.is_finite()
+                        && terms.shadowed.is_finite()
+                        && terms.unshadowed.is_finite()
+                        && shaded_value.is_none_or(|v| v.is_finite());
+                    if !finite {
                         t.dropped += 1;
+                        continue;
                     }
-                    continue;
-                };
-                let terms = sample_terms(scene, env, hit.as_ref(), -dir, job.bounces, &mut sampler);
-                t.rays += terms.rays as u64;
-                let same = hit.as_ref().map_or(NONE, |s| s.object) == centre_object;
-                let shaded_value = match (&hit, same && plan[i].lookups > 0) {
-                    (Some(s), true) => {
-                        let stream = LookupStream { seed: shade_seed, pixel: i as u32, index };
-                        Some(shade(scene, env, s, -dir, plan[i].lookups, stream))
+                    if !same {
+                        add(&mut px.whole, terms.rest + terms.shadowed);
+                        px.moments.add_whole((terms.rest + terms.shadowed).into());
+                        px.n_whole += 1;
+                        continue;
                     }
-                    _ => None,
-                };
-                let finite = terms.rest.is_finite()
-                    && terms.shadowed.is_finite()
-                    && terms.unshadowed.is_finite()
-                    && shaded_value.is_none_or(|v| v.is_finite());
-                if !finite {
-                    t.dropped += 1;
-                    continue;
-                }
-                if !same {
-                    add(&mut px.whole, terms.rest + terms.shadowed);
-                    px.moments.add_whole((terms.rest + terms.shadowed).into());
-                    px.n_whole += 1;
-                    continue;
-                }
-                px.moments.add_terms(terms.rest.into(), terms.shadowed.into(), terms.unshadowed.into());
-                add(&mut px.rest, terms.rest);
-                add(&mut px.shadowed, terms.shadowed);
-                add(&mut px.unshadowed, terms.unshadowed);
-                px.n_same += 1;
-                if let Some(s) = shaded_value {
-                    add(&mut px.shaded, s);
-                    px.moments.add_shaded(s.into());
-                    px.n_shaded += 1;
+                    px.moments.add_terms(terms.rest.into(), terms.shadowed.into(), terms.unshadowed.into());
+                    add(&mut px.rest, terms.rest);
+                    add(&mut px.shadowed, terms.shadowed);
+                    add(&mut px.unshadowed, terms.unshadowed);
+                    px.n_same += 1;
+                    if let Some(s) = shaded_value {
+                        add(&mut px.shaded, s);
+                        px.moments.add_shaded(s.into());
+                        px.n_shaded += 1;
+                    }
                 }
             }
         })
