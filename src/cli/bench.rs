@@ -221,6 +221,25 @@ fn builtin_builders(
     Ok(scenes)
 }
 
+/// Prints one row of `bench rays` (rays per second on 1 and 2 threads) and returns it as JSON.
+fn ray_row(
+    name: &str,
+    scene: &crate::render::scene::Scene,
+    set: &rays::RaySet,
+    label: &str,
+    (r1, r2): (f64, f64),
+    hits: usize,
+) -> serde_json::Value {
+    let (n, kind) = (set.origins.len(), set.kind.name());
+    println!(
+        "| {name} | {} | {n} | {kind} | {label} | {:.2} | {:.2} | {hits} |",
+        scene.triangle_count(),
+        r1 / 1e6,
+        r2 / 1e6
+    );
+    serde_json::json!({"rays": n, "hits": hits, "rays_per_second_1": r1, "rays_per_second_2": r2})
+}
+
 /// Parses --leaf-cost NODE,MAX.
 fn parse_leaf_cost(s: &str) -> anyhow::Result<LeafCost> {
     let bad = || anyhow::anyhow!("--leaf-cost {s}: expected NODE,MAX, e.g. 1.5,16 (MAX 1 to 32)");
@@ -266,34 +285,14 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
                         let (r1, hits) = rays::measure(scene, set, 1, repeats)?;
                         let (r2, _) = rays::measure(scene, set, 2, repeats)?;
                         one_thread[k] = r1;
-                        println!(
-                            "| {name} | {} | {} | {} | {layout} | {:.2} | {:.2} | {hits} |",
-                            scene.triangle_count(),
-                            set.origins.len(),
-                            set.kind.name(),
-                            r1 / 1e6,
-                            r2 / 1e6
-                        );
-                        results[k].insert(
-                            set.kind.name().to_string(),
-                            serde_json::json!({"rays": set.origins.len(), "hits": hits, "rays_per_second_1": r1, "rays_per_second_2": r2}),
-                        );
+                        let row = ray_row(&name, scene, set, layout, (r1, r2), hits);
+                        results[k].insert(set.kind.name().to_string(), row);
                     }
                     // The default tree again, the rays given in runs of a packet's size.
                     let (p1, hits) = rays::measure_packets(s, set, 1, repeats)?;
                     let (p2, _) = rays::measure_packets(s, set, 2, repeats)?;
-                    println!(
-                        "| {name} | {} | {} | {} | wedge default, packets | {:.2} | {:.2} | {hits} |",
-                        s.triangle_count(),
-                        set.origins.len(),
-                        set.kind.name(),
-                        p1 / 1e6,
-                        p2 / 1e6
-                    );
-                    results[0].insert(
-                        format!("{}_packets", set.kind.name()),
-                        serde_json::json!({"rays": set.origins.len(), "hits": hits, "rays_per_second_1": p1, "rays_per_second_2": p2}),
-                    );
+                    let row = ray_row(&name, s, set, "wedge default, packets", (p1, p2), hits);
+                    results[0].insert(format!("{}_packets", set.kind.name()), row);
                     ratios.push(format!(
                         "| {name} | {} | {:.2} | {:.2} | {:.2} |",
                         set.kind.name(),
