@@ -34,6 +34,7 @@ use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
 use crate::pipeline::job::{RenderError, RenderJob};
 use crate::pipeline::strategy::{PassContext, Sampled, Strategy};
 use crate::render::camera::Camera;
+use crate::render::camera_samples::CameraSamples;
 use crate::render::filter::{FilterKernel, FilterOptions, FilterSurface};
 use crate::render::gbuffer::GBuffer;
 use crate::render::huge_pages::filled;
@@ -44,6 +45,7 @@ use crate::render::mis::{light_terms, shadowed_lobe_term};
 use crate::render::sampler::PixelSampler;
 use crate::render::scene::Scene;
 use crate::render::scene::Surface;
+use crate::render::wide_bvh::MAX_PACKET;
 use glam::{DVec3, Vec3};
 use params::{filter_width, sample_count, slope, PixelGeometry};
 use rayon::prelude::*;
@@ -331,6 +333,7 @@ impl ShadowStrategy {
             .enumerate()
             .map(|(y, ((other_row, sums_row), target_row))| {
                 let (mut rays, mut dropped) = (0u64, 0u64);
+                let mut camera = CameraSamples::default();
                 for x in 0..w {
                     if ctx.stop.should_stop() {
                         return Tally { rays, dropped, complete: false };
@@ -344,13 +347,35 @@ impl ShadowStrategy {
                         rays += 1;
                         Centre::new(scene, &job.view, lights, x, y)
                     });
-                    for _ in 0..new {
-                        let mut sampler = PixelSampler::new(job.seed, (y * w + x) as u32, px.taken);
-                        px.taken += 1;
-                        let at = Pixel { cam: &job.view, x, y, centre: centre.as_ref() };
-                        let (r, d) = sample_pixel(scene, lights, at, &mut sampler, sums, want, px, record_slopes);
-                        rays += r;
-                        dropped += d;
+                    let pixel = (y * w + x) as u32;
+                    if let Some(c) = &centre {
+                        // Every sample starts at the centre's hit: no jitter pair is drawn.
+                        for _ in 0..new {
+                            let mut sampler = PixelSampler::new(job.seed, pixel, px.taken);
+                            px.taken += 1;
+                            let camera = CameraRay::Centre(c);
+                            let (r, d) =
+                                sample_pixel(scene, lights, camera, &mut sampler, sums, want, px, record_slopes);
+                            rays += r;
+                            dropped += d;
+                        }
+                        continue;
+                    }
+                    // The pixel's camera rays a packet at a time, each sample then traced on.
+                    let mut done = 0;
+                    while done < new {
+                        let m = ((new - done) as usize).min(MAX_PACKET);
+                        camera.set(&job.view, job.seed, (x, y), pixel, px.taken, m, true);
+                        camera.trace(scene, job.view.position);
+                        for k in 0..m {
+                            px.taken += 1;
+                            let ray = CameraRay::Own { dir: camera.dirs[k], hit: camera.hits[k] };
+                            let sampler = &mut camera.samplers[k];
+                            let (r, d) = sample_pixel(scene, lights, ray, sampler, sums, want, px, record_slopes);
+                            rays += r;
+                            dropped += d;
+                        }
+                        done += m as u32;
                     }
                 }
                 Tally { rays, dropped, complete: true }
@@ -668,13 +693,12 @@ impl Centre {
     }
 }
 
-/// Which pixel a sample belongs to, and its shared centre ray when shading pixel centres.
+/// A sample's camera ray: its pixel's shared centre ray when shading pixel centres, else its
+/// own jittered ray, traced with the pixel's others (`CameraSamples`).
 #[derive(Clone, Copy)]
-struct Pixel<'a> {
-    cam: &'a Camera,
-    x: usize,
-    y: usize,
-    centre: Option<&'a Centre>,
+enum CameraRay<'a> {
+    Centre(&'a Centre),
+    Own { dir: Vec3, hit: Option<Surface> },
 }
 
 /// One camera sample of one pixel: the rect lights that still need samples get one each; the
@@ -683,21 +707,16 @@ struct Pixel<'a> {
 fn sample_pixel(
     scene: &Scene,
     lights: &[ShadowLight],
-    at: Pixel,
+    camera: CameraRay,
     sampler: &mut PixelSampler,
     sums: &mut [LightSums],
     want: &[Target],
     other: &mut OtherSums,
     record_slopes: bool,
 ) -> (u64, u64) {
-    let cam = at.cam;
-    let (dir, hit, mut rays) = match at.centre {
-        Some(c) => (c.dir, c.hit, 0u64),
-        None => {
-            let j = sampler.next_2d();
-            let dir = cam.direction(at.x as f32 + j[0], at.y as f32 + j[1]);
-            (dir, scene.intersect(cam.position, dir, 0.0), 1u64)
-        }
+    let (dir, hit, mut rays, centre) = match camera {
+        CameraRay::Centre(c) => (c.dir, c.hit, 0u64, Some(c)),
+        CameraRay::Own { dir, hit } => (dir, hit, 1u64, None),
     };
     let Some(hit) = hit else {
         for (s, t) in sums.iter_mut().zip(want) {
@@ -736,7 +755,7 @@ fn sample_pixel(
             continue;
         }
         if with_r {
-            let r = at.centre.map_or_else(|| unshadowed(rect, &hit, wo, brdf.kd), |c| c.r[l]);
+            let r = centre.map_or_else(|| unshadowed(rect, &hit, wo, brdf.kd), |c| c.r[l]);
             if r.is_finite() {
                 for c in 0..3 {
                     s.r[c] += r[c];
