@@ -44,6 +44,7 @@ use crate::pipeline::film::{interleave_rank, mean, Tally};
 use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
 use crate::pipeline::strategy::{PassContext, Sampled, Strategy};
+use crate::render::camera_samples::CameraSamples;
 use crate::render::filter::{FilterKernel, FilterSurface};
 use crate::render::frame_basis::{cosine_hemisphere, to_world};
 use crate::render::gbuffer::GBuffer;
@@ -52,6 +53,7 @@ use crate::render::integrator::{direct_light, emitted, occlusion_ray, radiance_f
 use crate::render::material::{GlossyModel, Material};
 use crate::render::sampler::{hash_words, PixelSampler};
 use crate::render::scene::{Scene, Surface};
+use crate::render::wide_bvh::MAX_PACKET;
 use glam::Vec3;
 use params::{clamp_samples, filter_width, gamma_glossy, omega_h_glossy, sample_count, Reflectors};
 use rayon::prelude::*;
@@ -362,6 +364,7 @@ impl IndirectStrategy {
             .into_par_iter()
             .map(|(y, (row, want_row))| {
                 let (mut rays, mut dropped) = (0u64, 0u64);
+                let mut camera = CameraSamples::default();
                 for (x, (px, &(nd, ns))) in row.iter_mut().zip(want_row).enumerate() {
                     if ctx.stop.should_stop() {
                         return Tally { rays, dropped, complete: false };
@@ -373,14 +376,37 @@ impl IndirectStrategy {
                         let dir = job.view.direction(x as f32 + 0.5, y as f32 + 0.5);
                         (dir, scene.intersect(job.view.position, dir, 0.0))
                     });
+                    let pixel = (y * w + x) as u32;
+                    if centre.is_some() {
+                        while more(px) {
+                            let mut sampler = PixelSampler::new(seed, pixel, px.taken);
+                            px.taken += 1;
+                            let want = (px.diffuse.n < nd, px.glossy.n < ns);
+                            let s = Sample { scene, job, owns_direct, record_z, want, centre, own: None };
+                            let (r, d) = s.run(x, y, &mut sampler, px);
+                            rays += r;
+                            dropped += d;
+                        }
+                        continue;
+                    }
+                    // The camera rays a packet at a time: as many as the pixel surely takes
+                    // (each sample adds at most one to each count), then again while it wants more.
                     while more(px) {
-                        let mut sampler = PixelSampler::new(seed, (y * w + x) as u32, px.taken);
-                        px.taken += 1;
-                        let want = (px.diffuse.n < nd, px.glossy.n < ns);
-                        let s = Sample { scene, job, owns_direct, record_z, want, centre };
-                        let (r, d) = s.run(x, y, &mut sampler, px);
-                        rays += r;
-                        dropped += d;
+                        let surely = (taken.saturating_sub(px.taken))
+                            .max(nd.saturating_sub(px.diffuse.n))
+                            .max(ns.saturating_sub(px.glossy.n));
+                        let m = (surely as usize).clamp(1, MAX_PACKET);
+                        camera.set(&job.view, seed, (x, y), pixel, px.taken, m, true);
+                        camera.trace(scene, job.view.position);
+                        for k in 0..m {
+                            px.taken += 1;
+                            let want = (px.diffuse.n < nd, px.glossy.n < ns);
+                            let own = Some((camera.dirs[k], camera.hits[k]));
+                            let s = Sample { scene, job, owns_direct, record_z, want, centre: None, own };
+                            let (r, d) = s.run(x, y, &mut camera.samplers[k], px);
+                            rays += r;
+                            dropped += d;
+                        }
                     }
                 }
                 Tally { rays, dropped, complete: true }
@@ -547,20 +573,40 @@ struct Sample<'a> {
     want: (bool, bool),
     /// The pixel's centre ray and its hit, when shading pixel centres.
     centre: Option<(Vec3, Option<Surface>)>,
+    /// Else the sample's own camera ray and its hit, traced with the pixel's others
+    /// (`CameraSamples`, whose sampler has drawn the jitter pair); None: trace it here.
+    own: Option<(Vec3, Option<Surface>)>,
 }
 
 impl Sample<'_> {
     /// Traces the sample into `px`. Returns (rays, dropped).
     fn run(&self, x: usize, y: usize, sampler: &mut PixelSampler, px: &mut PixelSums) -> (u64, u64) {
         let (scene, cam) = (self.scene, &self.job.view);
+        if let Some((dir, hit)) = self.own {
+            return self.run_from(dir, hit, 1, sampler, px);
+        }
         let j = sampler.next_2d();
-        let (dir, hit, mut rays) = match self.centre {
+        let (dir, hit, rays) = match self.centre {
             Some((dir, hit)) => (dir, hit, 0u64),
             None => {
                 let dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
                 (dir, scene.intersect(cam.position, dir, 0.0), 1u64)
             }
         };
+        self.run_from(dir, hit, rays, sampler, px)
+    }
+
+    /// `run` from the sample's camera ray `dir`, its hit, and the rays traced for it.
+    fn run_from(
+        &self,
+        dir: Vec3,
+        hit: Option<Surface>,
+        camera_rays: u64,
+        sampler: &mut PixelSampler,
+        px: &mut PixelSums,
+    ) -> (u64, u64) {
+        let scene = self.scene;
+        let mut rays = camera_rays;
         let mut dropped = 0u64;
         let Some(hit) = hit else {
             self.record(px, Vec3::ZERO, None, Vec3::ZERO, None);
