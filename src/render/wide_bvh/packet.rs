@@ -499,7 +499,7 @@ impl WideBvh {
         self.intersect_many_as(self.packet_width(), rays, tmin, tmax, out)
     }
 
-    /// `intersect_many` in packets of `width` (which this CPU must support).
+    /// `intersect_many` in packets of `width` (one ray at a time where this CPU lacks it).
     pub(super) fn intersect_many_as(
         &self,
         width: PacketWidth,
@@ -537,9 +537,19 @@ impl WideBvh {
             (0..rays.len()).for_each(|r| q.single(self, r));
             return;
         }
+        // A width this CPU lacks (asked for by a caller that did not check) goes one ray at a
+        // time rather than running instructions the CPU does not have.
+        let width = match (width, PacketWidth::of(self)) {
+            (PacketWidth::Sixteen, PacketWidth::Sixteen) => PacketWidth::Sixteen,
+            (PacketWidth::Sixteen | PacketWidth::Eight, PacketWidth::Sixteen | PacketWidth::Eight) => {
+                PacketWidth::Eight
+            }
+            _ => PacketWidth::Single,
+        };
         match (&self.nodes, width) {
             // SAFETY: `PacketWidth::of` gives Sixteen only where the CPU has AVX-512F and
-            // Eight only for 8-wide trees, which are built only where it has AVX2 and FMA.
+            // Eight only for 8-wide trees, which are built only where it has AVX2 and FMA;
+            // `width` is at most what it gives.
             #[cfg(target_arch = "x86_64")]
             (Nodes::Eight(nodes), PacketWidth::Sixteen) => unsafe { run_avx512(self, nodes, rays, tmin, q) },
             #[cfg(target_arch = "x86_64")]
