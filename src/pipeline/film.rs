@@ -150,10 +150,9 @@ impl Film {
             let index = y * w + x;
             let n = count(index);
             // With pixel centres, every sample of the pass starts at the same hit.
-            let centre = cam.direction(x as f32 + 0.5, y as f32 + 0.5);
             let centre_hit = (pixel_centers && n > 0).then(|| {
                 t.rays += 1;
-                scene.intersect(cam.position, centre, 0.0)
+                scene.intersect(cam.position, cam.direction(x as f32 + 0.5, y as f32 + 0.5), 0.0)
             });
             // The pixel's camera rays go to the BVH a packet at a time (`CameraSamples`). Each
             // sample's numbers and path are its own, and the sums take the samples in order, as
