@@ -45,9 +45,9 @@ impl CameraSamples {
         assert!(len <= MAX_PACKET, "at most a packet of samples");
         self.len = len;
         let key = PixelSampler::pixel_key(seed, pixel);
-        for (i, (sampler, dir)) in self.samplers.iter_mut().zip(&mut self.dirs).take(len).enumerate() {
-            *sampler = PixelSampler::of_pixel(key, first + i as u32);
-            let j = sampler.next_2d();
+        let mut jitters = [[0.5; 2]; MAX_PACKET];
+        PixelSampler::first_points(key, first, &mut self.samplers[..len], &mut jitters[..len]);
+        for (dir, j) in self.dirs.iter_mut().zip(jitters).take(len) {
             let j = if jitter { j } else { [0.5, 0.5] };
             *dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
         }

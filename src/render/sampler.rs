@@ -168,20 +168,55 @@ impl PixelSampler {
     #[cfg_attr(not(feature = "stage-symbols"), inline)]
     #[cfg_attr(feature = "stage-symbols", inline(never))]
     pub fn next_2d(&mut self) -> [f32; 2] {
-        let h = mix64(self.key ^ (self.pair as u64).wrapping_mul(0xd1b5_4a32_d192_ed03));
+        let h = pair_hash(self.key, self.pair);
         self.pair += 1;
-        let (s_index, s_x, s_y) = (h as u32, (h >> 32) as u32, mix64(h) as u32);
-        let j = laine_karras(self.reversed_index, s_index);
-        let x = laine_karras(j.reverse_bits(), s_x).reverse_bits();
-        let y = laine_karras(sobol1_reversed(j), s_y).reverse_bits();
-        [to_unit(x), to_unit(y)]
+        point_2d(self.reversed_index, h)
     }
 
-    /// The next 1-D value in [0,1) (the first coordinate of a fresh pair).
-    #[inline]
+    /// The next 1-D value in [0,1): the first coordinate of a fresh pair, without the work of
+    /// the second.
+    #[cfg_attr(not(feature = "stage-symbols"), inline)]
+    #[cfg_attr(feature = "stage-symbols", inline(never))]
     pub fn next_1d(&mut self) -> f32 {
-        self.next_2d()[0]
+        let h = pair_hash(self.key, self.pair);
+        self.pair += 1;
+        let j = laine_karras(self.reversed_index, h as u32);
+        to_unit(laine_karras(j.reverse_bits(), (h >> 32) as u32).reverse_bits())
     }
+
+    /// Samplers for samples `first ..` of the pixel with key `key` (`pixel_key`), one per entry
+    /// of `samplers`, each after its first pair, which goes to `points`: what `of_pixel` and
+    /// `next_2d` give each, with the pair's scramble hashed once for all of them (a pixel's
+    /// camera samples draw their jitter this way).
+    #[cfg_attr(not(feature = "stage-symbols"), inline)]
+    #[cfg_attr(feature = "stage-symbols", inline(never))]
+    pub fn first_points(key: u64, first: u32, samplers: &mut [PixelSampler], points: &mut [[f32; 2]]) {
+        let h = pair_hash(key, 0);
+        for (i, (s, p)) in samplers.iter_mut().zip(points).enumerate() {
+            let reversed_index = (first + i as u32).reverse_bits();
+            *s = PixelSampler { key, reversed_index, pair: 1 };
+            *p = point_2d(reversed_index, h);
+        }
+    }
+}
+
+/// The scramble seeds of dimension pair `pair` of the pixel with key `key`, shared by all its
+/// samples: the index shuffle's in the low word, the first coordinate's in the high word (the
+/// second coordinate's is hashed from it).
+#[inline(always)]
+fn pair_hash(key: u64, pair: u32) -> u64 {
+    mix64(key ^ (pair as u64).wrapping_mul(0xd1b5_4a32_d192_ed03))
+}
+
+/// Point `i` (bit-reversed: `reversed_index`) of the pair with scramble seeds `h`
+/// (`pair_hash`).
+#[inline(always)]
+fn point_2d(reversed_index: u32, h: u64) -> [f32; 2] {
+    let (s_index, s_x, s_y) = (h as u32, (h >> 32) as u32, mix64(h) as u32);
+    let j = laine_karras(reversed_index, s_index);
+    let x = laine_karras(j.reverse_bits(), s_x).reverse_bits();
+    let y = laine_karras(sobol1_reversed(j), s_y).reverse_bits();
+    [to_unit(x), to_unit(y)]
 }
 
 #[cfg(test)]
@@ -198,6 +233,28 @@ mod tests {
                 assert_eq!(p, b.next_2d());
                 assert!((0.0..1.0).contains(&p[0]) && (0.0..1.0).contains(&p[1]));
             }
+        }
+    }
+
+    /// `next_1d` is the first coordinate of `next_2d`'s pair, and `first_points` gives each
+    /// sample the pair and the sampler that drawing it alone gives, bit for bit.
+    #[test]
+    fn shortcuts_equal_the_full_draws() {
+        for idx in [0u32, 1, 7, 1000, u32::MAX - 3] {
+            let mut a = PixelSampler::new(9, 55, idx);
+            let mut b = a;
+            for _ in 0..6 {
+                assert_eq!(a.next_1d(), b.next_2d()[0]);
+            }
+        }
+        let key = PixelSampler::pixel_key(3, 77);
+        let mut samplers = [PixelSampler::new(0, 0, 0); 5];
+        let mut points = [[0.0; 2]; 5];
+        PixelSampler::first_points(key, 40, &mut samplers, &mut points);
+        for i in 0..5 {
+            let mut alone = PixelSampler::of_pixel(key, 40 + i as u32);
+            assert_eq!(points[i], alone.next_2d(), "sample {i}");
+            assert_eq!(samplers[i].next_2d(), alone.next_2d(), "sample {i}, the next pair");
         }
     }
 

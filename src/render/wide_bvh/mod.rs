@@ -178,67 +178,29 @@ impl WideBvh {
 
     /// Closest hit with t in [tmin, tmax].
     pub fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<WideHit> {
-        let mut best: Option<WideHit> = None;
+        let mut leaf = ClosestHit { ray: Ray4::new(o, d), tmin, best: None };
         let mut tmax = tmax;
-        let ray = Ray4::new(o, d);
-        self.walk(o, d, tmin, &mut tmax, true, |blocks, tmax| {
-            for b in blocks {
-                let h = b.intersect(&ray, F4::splat(tmin), F4::splat(*tmax));
-                let mut m = h.mask;
-                while m != 0 {
-                    let i = m.trailing_zeros() as usize;
-                    m &= m - 1;
-                    if h.t[i] <= *tmax {
-                        *tmax = h.t[i];
-                        best =
-                            Some(WideHit { t: h.t[i], slot: b.slots[i], u: h.u.to_array()[i], v: h.v.to_array()[i] });
-                    }
-                }
-            }
-            false
-        });
-        best
+        self.walk(o, d, tmin, &mut tmax, true, &mut leaf);
+        leaf.best
     }
 
     /// True when some triangle lies on the segment at t in [tmin, tmax].
     pub fn occluded(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> bool {
-        let ray = Ray4::new(o, d);
         let mut tmax = tmax;
-        self.walk(o, d, tmin, &mut tmax, false, |blocks, tmax| {
-            blocks.iter().any(|b| b.intersect(&ray, F4::splat(tmin), F4::splat(*tmax)).mask != 0)
-        })
+        self.walk(o, d, tmin, &mut tmax, false, &mut AnyHit { ray: Ray4::new(o, d), tmin })
     }
 
     /// Calls `f` with the distance of every hit on the segment (a triangle in several leaves,
     /// which spatial splits allow, may be reported more than once).
-    pub fn for_each_hit(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, mut f: impl FnMut(f32)) {
-        let ray = Ray4::new(o, d);
+    pub fn for_each_hit(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, f: impl FnMut(f32)) {
         let mut tmax = tmax;
-        self.walk(o, d, tmin, &mut tmax, false, |blocks, tmax| {
-            for b in blocks {
-                let h = b.intersect(&ray, F4::splat(tmin), F4::splat(*tmax));
-                for i in 0..4 {
-                    if h.mask >> i & 1 == 1 {
-                        f(h.t[i]);
-                    }
-                }
-            }
-            false
-        });
+        self.walk(o, d, tmin, &mut tmax, false, &mut EachHit { ray: Ray4::new(o, d), tmin, f });
     }
 
     /// Visits the leaves whose boxes the segment enters, nearest child first when `ordered`;
     /// `leaf` may shorten `tmax` and returns true to stop. Returns whether a leaf stopped it.
     #[inline(always)]
-    fn walk(
-        &self,
-        o: Vec3,
-        d: Vec3,
-        tmin: f32,
-        tmax: &mut f32,
-        ordered: bool,
-        leaf: impl FnMut(&[Tri4], &mut f32) -> bool,
-    ) -> bool {
+    fn walk(&self, o: Vec3, d: Vec3, tmin: f32, tmax: &mut f32, ordered: bool, leaf: &mut impl Leaf) -> bool {
         if self.root == NO_CHILD {
             return false;
         }
@@ -264,6 +226,81 @@ impl WideBvh {
     }
 }
 
+/// What a traversal does at a leaf: tests the leaf's blocks, may shorten `tmax`, and returns
+/// true to stop. A trait whose method is always inlined rather than a closure: a closure's body
+/// is compiled on its own, without the traversal's AVX2 and FMA, and called once per leaf.
+trait Leaf {
+    fn visit(&mut self, blocks: &[Tri4], tmax: &mut f32) -> bool;
+}
+
+/// The closest hit so far.
+struct ClosestHit {
+    ray: Ray4,
+    tmin: f32,
+    best: Option<WideHit>,
+}
+
+impl Leaf for ClosestHit {
+    #[inline(always)]
+    fn visit(&mut self, blocks: &[Tri4], tmax: &mut f32) -> bool {
+        for b in blocks {
+            let h = b.intersect(&self.ray, F4::splat(self.tmin), F4::splat(*tmax));
+            let mut m = h.mask;
+            while m != 0 {
+                let i = m.trailing_zeros() as usize;
+                m &= m - 1;
+                if h.t[i] <= *tmax {
+                    *tmax = h.t[i];
+                    self.best =
+                        Some(WideHit { t: h.t[i], slot: b.slots[i], u: h.u.to_array()[i], v: h.v.to_array()[i] });
+                }
+            }
+        }
+        false
+    }
+}
+
+/// Any hit: stops at the first.
+struct AnyHit {
+    ray: Ray4,
+    tmin: f32,
+}
+
+impl Leaf for AnyHit {
+    #[inline(always)]
+    fn visit(&mut self, blocks: &[Tri4], tmax: &mut f32) -> bool {
+        // A loop, not `any` with a closure: the closure would not take the caller's features.
+        for b in blocks {
+            if b.intersect(&self.ray, F4::splat(self.tmin), F4::splat(*tmax)).mask != 0 {
+                return true;
+            }
+        }
+        false
+    }
+}
+
+/// Every hit, to `f`.
+struct EachHit<F: FnMut(f32)> {
+    ray: Ray4,
+    tmin: f32,
+    f: F,
+}
+
+impl<F: FnMut(f32)> Leaf for EachHit<F> {
+    #[inline(always)]
+    fn visit(&mut self, blocks: &[Tri4], tmax: &mut f32) -> bool {
+        for b in blocks {
+            let h = b.intersect(&self.ray, F4::splat(self.tmin), F4::splat(*tmax));
+            for i in 0..4 {
+                if h.mask >> i & 1 == 1 {
+                    (self.f)(h.t[i]);
+                }
+            }
+        }
+        false
+    }
+}
+
 /// One traversal's inputs.
 struct Query<'a> {
     blocks: &'a [Tri4],
@@ -286,7 +323,7 @@ impl Query<'_> {
         nodes: &[N],
         stack: &mut [MaybeUninit<Entry>],
         tmax: &mut f32,
-        leaf: impl FnMut(&[Tri4], &mut f32) -> bool,
+        leaf: &mut impl Leaf,
     ) -> bool {
         // SAFETY: forwarded from this function's contract.
         unsafe { self.run(nodes, stack, tmax, leaf) }
@@ -303,7 +340,7 @@ impl Query<'_> {
         nodes: &[N],
         stack: &mut [MaybeUninit<Entry>],
         tmax: &mut f32,
-        mut leaf: impl FnMut(&[Tri4], &mut f32) -> bool,
+        leaf: &mut impl Leaf,
     ) -> bool {
         let mut t = [0.0f32; 8];
         let mut sp = 0;
@@ -350,7 +387,7 @@ impl Query<'_> {
             if cur != NO_CHILD {
                 let start = ((cur & !LEAF) >> 3) as usize;
                 let count = (cur & 7) as usize + 1;
-                if leaf(&self.blocks[start..start + count], tmax) {
+                if leaf.visit(&self.blocks[start..start + count], tmax) {
                     return true;
                 }
             }
