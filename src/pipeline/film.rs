@@ -2,7 +2,7 @@
 use super::job::{RenderError, RenderJob, StopCheck};
 use crate::render::camera_samples::CameraSamples;
 use crate::render::huge_pages::filled;
-use crate::render::integrator::sample_from;
+use crate::render::integrator::{path_pairs, sample_from};
 use crate::render::scene::Scene;
 use crate::render::wide_bvh::MAX_PACKET;
 use rayon::prelude::*;
@@ -146,6 +146,7 @@ impl Film {
         let (seed, bounces, integrand, pixel_centers) = (job.seed, job.bounces, job.integrand, job.pixel_centers);
         let w = self.width as usize;
         let cam = &job.view;
+        let pairs_ahead = path_pairs(scene, integrand, bounces);
         trace_bands(&mut self.pixels, w, stop, |x, y, px, t| {
             let index = y * w + x;
             let n = count(index);
@@ -158,7 +159,7 @@ impl Film {
             // sample's numbers and path are its own, and the sums take the samples in order, as
             // one at a time would.
             let mut done = 0;
-            let mut c = CameraSamples::default();
+            let mut c = CameraSamples { pairs_ahead, ..CameraSamples::default() };
             while done < n {
                 let m = (n - done).min(MAX_PACKET as u32) as usize;
                 c.set(cam, seed, (x, y), index as u32, px.taken, m, !pixel_centers);

@@ -13,6 +13,10 @@ pub struct CameraSamples {
     pub dirs: [Vec3; MAX_PACKET],
     pub hits: [Option<Surface>; MAX_PACKET],
     pub len: usize,
+    /// Dimension pairs each sample's path draws after its camera pair, drawn ahead for all the
+    /// samples together (`PixelSampler::draw_ahead`; 0: none). Any count gives the same
+    /// numbers; the right one spares the most work (`integrator::path_pairs`).
+    pub pairs_ahead: usize,
 }
 
 impl Default for CameraSamples {
@@ -22,6 +26,7 @@ impl Default for CameraSamples {
             dirs: [Vec3::Z; MAX_PACKET],
             hits: [None; MAX_PACKET],
             len: 0,
+            pairs_ahead: 0,
         }
     }
 }
@@ -47,6 +52,7 @@ impl CameraSamples {
         let key = PixelSampler::pixel_key(seed, pixel);
         let mut jitters = [[0.5; 2]; MAX_PACKET];
         PixelSampler::first_points(key, first, &mut self.samplers[..len], &mut jitters[..len]);
+        PixelSampler::draw_ahead(&mut self.samplers[..len], self.pairs_ahead);
         for (dir, j) in self.dirs.iter_mut().zip(jitters).take(len) {
             let j = if jitter { j } else { [0.5, 0.5] };
             *dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
@@ -97,7 +103,7 @@ mod tests {
         let (x, y) = (cam.width as usize / 2 + 3, cam.height as usize / 3);
         let pixel = (y * cam.width as usize + x) as u32;
         for (first, len, jitter) in [(0, 16, true), (5, 7, true), (40, 1, true), (3, 16, false)] {
-            let mut c = CameraSamples::default();
+            let mut c = CameraSamples { pairs_ahead: first as usize % 5, ..CameraSamples::default() };
             c.set(&cam, 11, (x, y), pixel, first, len, jitter);
             assert_eq!(c.trace(&scene, cam.position), len as u64);
             for i in 0..len {

@@ -55,6 +55,36 @@ impl LightDims {
     }
 }
 
+/// The dimension pairs one sample of `integrand` draws after its camera pair when its path
+/// runs all `bounces`: each vertex draws `LightDims` for every light, and each bounce a lobe
+/// choice and a direction (`radiance_from`); occlusion draws one direction. A packet of a
+/// pixel's samples draws these ahead together (`CameraSamples::pairs_ahead`).
+pub fn path_pairs(scene: &Scene, integrand: Integrand, bounces: u32) -> usize {
+    match integrand {
+        Integrand::AmbientOcclusion { .. } => 1,
+        Integrand::Radiance => {
+            let per_light = |l: &Light| match l {
+                Light::Environment(_) => 3,
+                Light::Rect(_) if scene.glossy => 2,
+                Light::Rect(_) | Light::Point(_) => 1,
+            };
+            let per_vertex: usize = scene.lights.iter().map(per_light).sum();
+            per_vertex * (bounces as usize + 1) + 2 * bounces as usize
+        }
+    }
+}
+
+/// The dimension pairs of a sample split at its first hit as the AAF methods and `auto` split
+/// it: every light's `LightDims` there, then a diffuse and a glossy direction, then the path
+/// on from the diffuse direction's hit with the bounces left (`path_pairs`).
+pub fn split_path_pairs(scene: &Scene, bounces: u32) -> usize {
+    let first = path_pairs(scene, Integrand::Radiance, 0);
+    match bounces {
+        0 => first,
+        b => first + 2 + path_pairs(scene, Integrand::Radiance, b - 1),
+    }
+}
+
 /// Direct light at `s` towards `wo`: one sample of every light, each with its own stratified
 /// dimension pair. Returns the radiance and the number of shadow rays.
 pub fn direct_light(scene: &Scene, s: &Surface, wo: Vec3, sampler: &mut PixelSampler) -> (Vec3, u32) {
@@ -647,6 +677,39 @@ mod tests {
             let r = trace_path(&scene, c.position, c.direction(4.5, 4.5), 3, &mut sampler);
             assert_eq!(r.radiance, Vec3::ZERO, "sample {i}");
         }
+    }
+
+    /// `path_pairs` counts the pairs a path that runs all its bounces draws: in a closed box no
+    /// path leaves early but the few whose bounce finds the light, under a rect light, a sky
+    /// and with the lobe pairs of a glossy scene.
+    #[test]
+    fn path_pairs_counts_the_pairs_a_whole_path_draws() {
+        let mut scene = closed_box(0.8, 3.9);
+        for (with_sky, glossy, bounces, expected) in [
+            (false, false, 0, 1),
+            (false, false, 1, 4),
+            (false, true, 3, 14),
+            (true, false, 2, 16),
+            (true, true, 1, 12),
+        ] {
+            scene.lights.truncate(1);
+            if with_sky {
+                scene.lights.push(Light::Environment(constant_sky(1.0)));
+            }
+            scene.glossy = glossy;
+            assert_eq!(path_pairs(&scene, Integrand::Radiance, bounces), expected);
+            let c = scene.default_view();
+            let drawn: Vec<u32> = (0..64)
+                .map(|i| {
+                    let mut sampler = PixelSampler::new(8, 3, i);
+                    trace_path(&scene, c.position, c.direction(4.5, 4.5), bounces, &mut sampler);
+                    sampler.pairs_drawn()
+                })
+                .collect();
+            assert!(drawn.iter().all(|&d| d <= expected as u32), "{drawn:?}");
+            assert!(drawn.iter().filter(|&&d| d == expected as u32).count() > 48, "{drawn:?}");
+        }
+        assert_eq!(path_pairs(&scene, Integrand::AmbientOcclusion { max_distance: 1.0 }, 3), 1);
     }
 
     #[test]

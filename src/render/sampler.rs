@@ -66,58 +66,25 @@ fn sobol1(mut i: u32) -> u32 {
     r
 }
 
-/// Sobol dimension 1 in the bit-reversed domain: `sobol1(j.reverse_bits()).reverse_bits()`.
+/// Sobol dimension 1, bit-reversed: `sobol1(i).reverse_bits()`. The sampler works on
+/// bit-reversed values (an Owen scramble is a Laine-Karras permutation of them) and has the
+/// shuffled index `i` at hand, since dimension 0 needs it too.
 ///
-/// The map is linear over GF(2) in the bits of `j`, so it is the XOR of one table entry per
-/// byte of `j`. The sampler works on bit-reversed values throughout (Owen scrambling is a
-/// Laine-Karras permutation of them), so the table spares it a bit-serial loop and two bit
-/// reversals per point.
-#[inline]
-fn sobol1_reversed(j: u32) -> u32 {
-    let t = &SOBOL1_REVERSED;
-    t[0][(j & 0xff) as usize]
-        ^ t[1][(j >> 8 & 0xff) as usize]
-        ^ t[2][(j >> 16 & 0xff) as usize]
-        ^ t[3][(j >> 24) as usize]
+/// Dimension 1's direction numbers are the rows of Pascal's triangle mod 2 (v_k = v_{k-1} ^
+/// (v_{k-1} >> 1)), so bit m of the reversed output is the XOR of the index's bits k with
+/// C(k, m) odd, that is (Lucas) with m a submask of k: the superset sum of the index's bits
+/// over the 5-bit positions, five shift-mask-XOR steps. Linear over GF(2) like the table it
+/// replaced, it needs no memory, and runs on several samples per instruction
+/// (`draw_ahead`).
+#[inline(always)]
+fn sobol1_of_index(mut i: u32) -> u32 {
+    i ^= (i >> 1) & 0x5555_5555;
+    i ^= (i >> 2) & 0x3333_3333;
+    i ^= (i >> 4) & 0x0f0f_0f0f;
+    i ^= (i >> 8) & 0x00ff_00ff;
+    i ^= (i >> 16) & 0x0000_ffff;
+    i
 }
-
-/// Direction numbers of Sobol dimension 1, bit-reversed: entry k is the image of bit k.
-const fn sobol1_reversed_columns() -> [u32; 32] {
-    let mut cols = [0u32; 32];
-    // Column k of the generator matrix is v_k = v_{k-1} ^ (v_{k-1} >> 1), v_0 = 1 << 31; the
-    // reversed domain maps bit 31 - k of the input to the reversed column.
-    let mut v = 1u32 << 31;
-    let mut k = 0;
-    while k < 32 {
-        cols[31 - k] = v.reverse_bits();
-        v ^= v >> 1;
-        k += 1;
-    }
-    cols
-}
-
-const SOBOL1_REVERSED: [[u32; 256]; 4] = {
-    let cols = sobol1_reversed_columns();
-    let mut t = [[0u32; 256]; 4];
-    let mut byte = 0;
-    while byte < 4 {
-        let mut b = 0;
-        while b < 256 {
-            let mut r = 0;
-            let mut bit = 0;
-            while bit < 8 {
-                if b >> bit & 1 != 0 {
-                    r ^= cols[byte * 8 + bit];
-                }
-                bit += 1;
-            }
-            t[byte][b] = r;
-            b += 1;
-        }
-        byte += 1;
-    }
-    t
-};
 
 /// 2^-32 with the result kept strictly below 1 in f32.
 #[inline]
@@ -126,6 +93,10 @@ fn to_unit(x: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
 }
 
+/// Dimension pairs a sampler can hold drawn ahead (`PixelSampler::draw_ahead`): a path of a few
+/// bounces under a few lights; the pairs past them are drawn one at a time.
+pub const MAX_AHEAD: usize = 12;
+
 /// The sample stream of one pixel: yields stratified 2-D points for successive dimension pairs.
 #[derive(Clone, Copy, Debug)]
 pub struct PixelSampler {
@@ -133,6 +104,11 @@ pub struct PixelSampler {
     /// The sample index, bit-reversed once here rather than at every point.
     reversed_index: u32,
     pair: u32,
+    /// Pairs `ahead_from .. ahead_from + ahead_len` drawn ahead (`draw_ahead`): drawing one of
+    /// them reads it here.
+    ahead_from: u32,
+    ahead_len: u32,
+    ahead: [[f32; 2]; MAX_AHEAD],
 }
 
 impl PixelSampler {
@@ -155,7 +131,23 @@ impl PixelSampler {
     #[cfg_attr(not(feature = "stage-symbols"), inline)]
     #[cfg_attr(feature = "stage-symbols", inline(never))]
     pub fn of_pixel(key: u64, index: u32) -> Self {
-        PixelSampler { key, reversed_index: index.reverse_bits(), pair: 0 }
+        Self::at_pair(key, index.reverse_bits(), 0)
+    }
+
+    #[inline(always)]
+    fn at_pair(key: u64, reversed_index: u32, pair: u32) -> Self {
+        PixelSampler { key, reversed_index, pair, ahead_from: 0, ahead_len: 0, ahead: [[0.0; 2]; MAX_AHEAD] }
+    }
+
+    /// The dimension pairs drawn so far (a 1-D value takes a pair).
+    pub fn pairs_drawn(&self) -> u32 {
+        self.pair
+    }
+
+    /// Pair `pair`'s point if it was drawn ahead.
+    #[inline(always)]
+    fn drawn_ahead(&self, pair: u32) -> Option<[f32; 2]> {
+        self.ahead[..self.ahead_len as usize].get(pair.wrapping_sub(self.ahead_from) as usize).copied()
     }
 
     /// The next 2-D point in [0,1)^2. Successive calls use independent scrambles, each stratified
@@ -164,13 +156,16 @@ impl PixelSampler {
     /// Point i of the shuffled, scrambled sequence is (owen(sobol0(i')), owen(sobol1(i'))) with
     /// i' = owen(i) (Burley 2020, Listing 3). The steps run on bit-reversed values where they
     /// can, since an Owen scramble is a Laine-Karras permutation of the reversed bits: sobol0
-    /// reversed is the identity, and sobol1 reversed is a table lookup.
+    /// reversed is the identity.
     #[cfg_attr(not(feature = "stage-symbols"), inline)]
     #[cfg_attr(feature = "stage-symbols", inline(never))]
     pub fn next_2d(&mut self) -> [f32; 2] {
-        let h = pair_hash(self.key, self.pair);
+        let pair = self.pair;
         self.pair += 1;
-        point_2d(self.reversed_index, h)
+        if let Some(p) = self.drawn_ahead(pair) {
+            return p;
+        }
+        point_2d(self.reversed_index, pair_hash(self.key, pair))
     }
 
     /// The next 1-D value in [0,1): the first coordinate of a fresh pair, without the work of
@@ -178,8 +173,12 @@ impl PixelSampler {
     #[cfg_attr(not(feature = "stage-symbols"), inline)]
     #[cfg_attr(feature = "stage-symbols", inline(never))]
     pub fn next_1d(&mut self) -> f32 {
-        let h = pair_hash(self.key, self.pair);
+        let pair = self.pair;
         self.pair += 1;
+        if let Some(p) = self.drawn_ahead(pair) {
+            return p[0];
+        }
+        let h = pair_hash(self.key, pair);
         let j = laine_karras(self.reversed_index, h as u32);
         to_unit(laine_karras(j.reverse_bits(), (h >> 32) as u32).reverse_bits())
     }
@@ -192,12 +191,95 @@ impl PixelSampler {
     #[cfg_attr(feature = "stage-symbols", inline(never))]
     pub fn first_points(key: u64, first: u32, samplers: &mut [PixelSampler], points: &mut [[f32; 2]]) {
         let h = pair_hash(key, 0);
-        for (i, (s, p)) in samplers.iter_mut().zip(points).enumerate() {
-            let reversed_index = (first + i as u32).reverse_bits();
-            *s = PixelSampler { key, reversed_index, pair: 1 };
-            *p = point_2d(reversed_index, h);
+        let chunks = samplers.chunks_mut(AHEAD_LANES).zip(points.chunks_mut(AHEAD_LANES));
+        for (c, (samplers, points)) in chunks.enumerate() {
+            let first = first.wrapping_add((c * AHEAD_LANES) as u32);
+            let reversed: [u32; AHEAD_LANES] = std::array::from_fn(|i| first.wrapping_add(i as u32).reverse_bits());
+            let (xs, ys) = points_in_lanes(&reversed, h);
+            for (i, (s, p)) in samplers.iter_mut().zip(points).enumerate() {
+                *s = Self::at_pair(key, reversed[i], 1);
+                *p = [xs[i], ys[i]];
+            }
         }
     }
+
+    /// Draws the next `pairs` pairs (at most `MAX_AHEAD`) of every sampler in `samplers`, ahead
+    /// of their use: the samples of one pixel at one pair (`first_points`' samplers), which
+    /// draw the same pairs in step and differ only in their index. Each pair's scramble is then
+    /// hashed once for all of them and their points are computed several per instruction; each
+    /// point is the one `next_2d` would draw, bit for bit.
+    #[cfg_attr(not(feature = "stage-symbols"), inline)]
+    #[cfg_attr(feature = "stage-symbols", inline(never))]
+    pub fn draw_ahead(samplers: &mut [PixelSampler], pairs: usize) {
+        if pairs == 0 {
+            return;
+        }
+        let Some(&PixelSampler { key, pair: from, .. }) = samplers.first() else { return };
+        assert!(samplers.iter().all(|s| s.key == key && s.pair == from), "samples of one pixel, at one pair");
+        let pairs = pairs.min(MAX_AHEAD);
+        for chunk in samplers.chunks_mut(AHEAD_LANES) {
+            let mut reversed = [0u32; AHEAD_LANES];
+            for (r, s) in reversed.iter_mut().zip(chunk.iter()) {
+                *r = s.reversed_index;
+            }
+            for k in 0..pairs {
+                let (xs, ys) = points_in_lanes(&reversed, pair_hash(key, from + k as u32));
+                for (i, s) in chunk.iter_mut().enumerate() {
+                    s.ahead[k] = [xs[i], ys[i]];
+                }
+            }
+            for s in chunk {
+                (s.ahead_from, s.ahead_len) = (from, pairs as u32);
+            }
+        }
+    }
+}
+
+/// Samples whose points `draw_ahead` computes together: an AVX-512 register of 32-bit lanes.
+const AHEAD_LANES: usize = 16;
+
+/// `point_2d` of every index in `reversed` with one pair's scramble seeds `h`: the two
+/// coordinates' lanes. On x86-64 the lanes go to the widest vector unit the CPU has; the
+/// arithmetic is integer and exact, so every width gives the same bits.
+#[inline]
+fn points_in_lanes(reversed: &[u32; AHEAD_LANES], h: u64) -> ([f32; AHEAD_LANES], [f32; AHEAD_LANES]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512bw") {
+            // SAFETY: the CPU has AVX-512F and AVX-512BW.
+            return unsafe { points_avx512(reversed, h) };
+        }
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2.
+            return unsafe { points_avx2(reversed, h) };
+        }
+    }
+    points_generic(reversed, h)
+}
+
+/// # Safety
+/// The CPU must support AVX-512F and AVX-512BW.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512bw,avx2")]
+unsafe fn points_avx512(reversed: &[u32; AHEAD_LANES], h: u64) -> ([f32; AHEAD_LANES], [f32; AHEAD_LANES]) {
+    points_generic(reversed, h)
+}
+
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn points_avx2(reversed: &[u32; AHEAD_LANES], h: u64) -> ([f32; AHEAD_LANES], [f32; AHEAD_LANES]) {
+    points_generic(reversed, h)
+}
+
+#[inline(always)]
+fn points_generic(reversed: &[u32; AHEAD_LANES], h: u64) -> ([f32; AHEAD_LANES], [f32; AHEAD_LANES]) {
+    let (mut xs, mut ys) = ([0.0; AHEAD_LANES], [0.0; AHEAD_LANES]);
+    for ((x, y), &r) in xs.iter_mut().zip(ys.iter_mut()).zip(reversed) {
+        [*x, *y] = point_2d(r, h);
+    }
+    (xs, ys)
 }
 
 /// The scramble seeds of dimension pair `pair` of the pixel with key `key`, shared by all its
@@ -213,9 +295,9 @@ fn pair_hash(key: u64, pair: u32) -> u64 {
 #[inline(always)]
 fn point_2d(reversed_index: u32, h: u64) -> [f32; 2] {
     let (s_index, s_x, s_y) = (h as u32, (h >> 32) as u32, mix64(h) as u32);
-    let j = laine_karras(reversed_index, s_index);
-    let x = laine_karras(j.reverse_bits(), s_x).reverse_bits();
-    let y = laine_karras(sobol1_reversed(j), s_y).reverse_bits();
+    let i = laine_karras(reversed_index, s_index).reverse_bits();
+    let x = laine_karras(i, s_x).reverse_bits();
+    let y = laine_karras(sobol1_of_index(i), s_y).reverse_bits();
     [to_unit(x), to_unit(y)]
 }
 
@@ -258,6 +340,45 @@ mod tests {
         }
     }
 
+    /// Samplers with pairs drawn ahead draw what they would alone, whatever mix of 1-D and 2-D
+    /// draws follows, within the pairs drawn ahead and past them; and the vector lanes compute
+    /// each point as `point_2d` does.
+    #[test]
+    fn pairs_drawn_ahead_equal_those_drawn_alone() {
+        let key = PixelSampler::pixel_key(21, 4321);
+        for (first, len, pairs) in [(0u32, 16usize, 4usize), (37, 5, 1), (1000, 20, MAX_AHEAD), (7, 3, 40), (2, 1, 0)] {
+            let mut samplers = vec![PixelSampler::new(0, 0, 0); len];
+            let mut points = vec![[0.0; 2]; len];
+            PixelSampler::first_points(key, first, &mut samplers, &mut points);
+            PixelSampler::draw_ahead(&mut samplers, pairs);
+            for (i, s) in samplers.iter_mut().enumerate() {
+                let mut alone = PixelSampler::of_pixel(key, first + i as u32);
+                assert_eq!(points[i], alone.next_2d());
+                for d in 0..MAX_AHEAD + 3 {
+                    if d % 3 == 1 {
+                        assert_eq!(s.next_1d(), alone.next_1d(), "sample {i}, draw {d} of {pairs} ahead");
+                    } else {
+                        assert_eq!(s.next_2d(), alone.next_2d(), "sample {i}, draw {d} of {pairs} ahead");
+                    }
+                }
+            }
+        }
+        let reversed: [u32; AHEAD_LANES] = std::array::from_fn(|i| (i as u32).wrapping_mul(0x9e37_79b9).reverse_bits());
+        for h in [0u64, 1, 0xdead_beef_cafe_f00d, u64::MAX] {
+            let (xs, ys) = points_in_lanes(&reversed, h);
+            for i in 0..AHEAD_LANES {
+                assert_eq!([xs[i], ys[i]], point_2d(reversed[i], h), "lane {i}");
+            }
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "samples of one pixel")]
+    fn drawing_ahead_refuses_samplers_of_other_pixels() {
+        let mut samplers = [PixelSampler::new(1, 2, 0), PixelSampler::new(1, 3, 1)];
+        PixelSampler::draw_ahead(&mut samplers, 2);
+    }
+
     /// The sampler's reversed-domain arithmetic gives the same points, bit for bit, as
     /// Burley's Listing 3 written out (shuffle the index, Sobol, scramble each coordinate).
     #[test]
@@ -279,8 +400,12 @@ mod tests {
                 }
             }
         }
-        for j in [0u32, 1, 0x8000_0000, 0xdead_beef, u32::MAX] {
-            assert_eq!(sobol1_reversed(j), sobol1(j.reverse_bits()).reverse_bits(), "{j:#x}");
+        // Both sides are linear over GF(2): equal on every bit, equal everywhere.
+        for k in 0..32 {
+            assert_eq!(sobol1_of_index(1 << k), sobol1(1 << k).reverse_bits(), "bit {k}");
+        }
+        for i in [0u32, 3, 0x8000_0001, 0xdead_beef, u32::MAX] {
+            assert_eq!(sobol1_of_index(i), sobol1(i).reverse_bits(), "{i:#x}");
         }
     }
 

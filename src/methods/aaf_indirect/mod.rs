@@ -49,7 +49,7 @@ use crate::render::filter::{FilterKernel, FilterSurface};
 use crate::render::frame_basis::{cosine_hemisphere, to_world};
 use crate::render::gbuffer::GBuffer;
 use crate::render::huge_pages::filled;
-use crate::render::integrator::{direct_light, emitted, occlusion_ray, radiance_from, DirectLights};
+use crate::render::integrator::{direct_light, emitted, occlusion_ray, radiance_from, split_path_pairs, DirectLights};
 use crate::render::material::{GlossyModel, Material};
 use crate::render::sampler::{hash_words, PixelSampler};
 use crate::render::scene::{Scene, Surface};
@@ -356,6 +356,7 @@ impl IndirectStrategy {
         let (scene, job) = (ctx.scene, ctx.job);
         let w = self.width;
         let (seed, owns_direct) = (self.seed, self.owns_direct);
+        let pairs_ahead = split_path_pairs(scene, job.bounces);
         // Rows in interleaved order: a pass the deadline cuts leaves its reached rows spread
         // out, and the counted gather fills the others from them.
         let mut rows: Vec<_> = self.sums.chunks_mut(w.max(1)).zip(targets.chunks(w.max(1))).enumerate().collect();
@@ -364,7 +365,7 @@ impl IndirectStrategy {
             .into_par_iter()
             .map(|(y, (row, want_row))| {
                 let (mut rays, mut dropped) = (0u64, 0u64);
-                let mut camera = CameraSamples::default();
+                let mut camera = CameraSamples { pairs_ahead, ..CameraSamples::default() };
                 for (x, (px, &(nd, ns))) in row.iter_mut().zip(want_row).enumerate() {
                     if ctx.stop.should_stop() {
                         return Tally { rays, dropped, complete: false };

@@ -38,7 +38,7 @@ use crate::render::camera_samples::CameraSamples;
 use crate::render::filter::{FilterKernel, FilterOptions, FilterSurface};
 use crate::render::gbuffer::GBuffer;
 use crate::render::huge_pages::filled;
-use crate::render::integrator::{emitted, radiance_from, DirectLights, PathResult};
+use crate::render::integrator::{emitted, path_pairs, radiance_from, DirectLights, Integrand, PathResult};
 use crate::render::light::{EmissionProfile, Light, RectLight};
 use crate::render::material::Material;
 use crate::render::mis::{light_terms, shadowed_lobe_term};
@@ -325,6 +325,8 @@ impl ShadowStrategy {
         let (scene, job) = (ctx.scene, ctx.job);
         let (w, nl) = (self.width, self.lights.len());
         let lights = &self.lights;
+        // Every light's pairs at the first hit (`sample`).
+        let pairs_ahead = path_pairs(scene, Integrand::Radiance, 0);
         let results: Vec<Tally> = self
             .other
             .par_chunks_mut(w)
@@ -333,7 +335,7 @@ impl ShadowStrategy {
             .enumerate()
             .map(|(y, ((other_row, sums_row), target_row))| {
                 let (mut rays, mut dropped) = (0u64, 0u64);
-                let mut camera = CameraSamples::default();
+                let mut camera = CameraSamples { pairs_ahead, ..CameraSamples::default() };
                 for x in 0..w {
                     if ctx.stop.should_stop() {
                         return Tally { rays, dropped, complete: false };

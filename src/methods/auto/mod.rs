@@ -61,6 +61,7 @@ use crate::pipeline::strategy::{PassContext, Sampled, Strategy};
 use crate::render::camera_samples::CameraSamples;
 use crate::render::gbuffer::GBuffer;
 use crate::render::huge_pages::{collected, filled};
+use crate::render::integrator::split_path_pairs;
 use crate::render::light::Light;
 use crate::render::sampler::hash_words;
 use crate::render::wide_bvh::MAX_PACKET;
@@ -330,10 +331,11 @@ impl AutoStrategy {
             penumbra_rays: self.opts.penumbra_rays,
         };
         let seed = self.seed;
+        let pairs_ahead = split_path_pairs(ctx.scene, ctx.job.bounces);
         let trace_row =
             |y: usize, row: &mut [PixelSums], light_row: &mut [LightSums], mut ind: Option<&mut [IndirectSums]>| {
                 let (mut rays, mut dropped) = (0u64, 0u64);
-                let mut c = CameraSamples::default();
+                let mut c = CameraSamples { pairs_ahead, ..CameraSamples::default() };
                 for (x, px) in row.iter_mut().enumerate() {
                     if ctx.stop.should_stop() {
                         return Tally { rays, dropped, complete: false };

@@ -20,7 +20,7 @@ use crate::pipeline::job::{Integrand, RenderError, RenderJob};
 use crate::pipeline::strategy::{PassContext, Sampled, Strategy};
 use crate::render::camera_samples::CameraSamples;
 use crate::render::geometry::NONE;
-use crate::render::integrator::sample_from;
+use crate::render::integrator::{path_pairs, sample_from};
 use crate::render::sampler::hash_words;
 use crate::render::wide_bvh::MAX_PACKET;
 use glam::Vec3;
@@ -210,13 +210,14 @@ impl BandwidthShading {
         let shade_seed = hash_words(&[seed, STREAM]);
         let env = scene.environment();
         let gbuffer = ctx.gbuffer.map(|g| g.as_ref());
+        let pairs_ahead = path_pairs(scene, job.integrand, job.bounces);
         trace_bands(&mut self.pixels, w, ctx.stop, |x, y, px, t| {
             let i = y * w + x;
             let centre_object = gbuffer.map_or(NONE, |g| g.pixels[i].object);
             // The pixel's camera rays a packet at a time (`CameraSamples`), each sample then
             // traced on in order.
             let target = upto(i);
-            let mut camera = CameraSamples::default();
+            let mut camera = CameraSamples { pairs_ahead, ..CameraSamples::default() };
             while px.taken < target {
                 let m = ((target - px.taken) as usize).min(MAX_PACKET);
                 camera.set(cam, seed, (x, y), i as u32, px.taken, m, !job.pixel_centers);
