@@ -14,7 +14,7 @@ pub struct CameraSamples {
     pub hits: [Option<Surface>; MAX_PACKET],
     pub len: usize,
     /// Dimension pairs each sample's path draws after its camera pair, drawn ahead for all the
-    /// samples together (`PixelSampler::draw_ahead`; 0: none). Any count gives the same
+    /// samples together once `trace` has found their hits (`PixelSampler::draw_ahead`; 0: none). Any count gives the same
     /// numbers; the right one spares the most work (`integrator::path_pairs`).
     pub pairs_ahead: usize,
 }
@@ -52,17 +52,22 @@ impl CameraSamples {
         let key = PixelSampler::pixel_key(seed, pixel);
         let mut jitters = [[0.5; 2]; MAX_PACKET];
         PixelSampler::first_points(key, first, &mut self.samplers[..len], &mut jitters[..len]);
-        PixelSampler::draw_ahead(&mut self.samplers[..len], self.pairs_ahead);
         for (dir, j) in self.dirs.iter_mut().zip(jitters).take(len) {
             let j = if jitter { j } else { [0.5, 0.5] };
             *dir = cam.direction(x as f32 + j[0], y as f32 + j[1]);
         }
     }
 
-    /// Traces the rays from the camera at `origin` into `hits`; returns the rays traced.
+    /// Traces the rays from the camera at `origin` into `hits`, and draws the samples' next
+    /// `pairs_ahead` pairs ahead where most rays hit something (a ray that leaves the scene
+    /// draws nothing more: in the sky ahead is waste); returns the rays traced.
     pub fn trace(&mut self, scene: &Scene, origin: Vec3) -> u64 {
-        scene.intersect_many(origin, &self.dirs[..self.len], 0.0, &mut self.hits[..self.len]);
-        self.len as u64
+        let n = self.len;
+        scene.intersect_many(origin, &self.dirs[..n], 0.0, &mut self.hits[..n]);
+        if 2 * self.hits[..n].iter().filter(|h| h.is_some()).count() > n {
+            PixelSampler::draw_ahead(&mut self.samplers[..n], self.pairs_ahead);
+        }
+        n as u64
     }
 }
 

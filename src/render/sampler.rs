@@ -157,7 +157,7 @@ impl PixelSampler {
     /// i' = owen(i) (Burley 2020, Listing 3). The steps run on bit-reversed values where they
     /// can, since an Owen scramble is a Laine-Karras permutation of the reversed bits: sobol0
     /// reversed is the identity.
-    #[cfg_attr(not(feature = "stage-symbols"), inline)]
+    #[cfg_attr(not(feature = "stage-symbols"), inline(always))]
     #[cfg_attr(feature = "stage-symbols", inline(never))]
     pub fn next_2d(&mut self) -> [f32; 2] {
         let pair = self.pair;
@@ -170,7 +170,7 @@ impl PixelSampler {
 
     /// The next 1-D value in [0,1): the first coordinate of a fresh pair, without the work of
     /// the second.
-    #[cfg_attr(not(feature = "stage-symbols"), inline)]
+    #[cfg_attr(not(feature = "stage-symbols"), inline(always))]
     #[cfg_attr(feature = "stage-symbols", inline(never))]
     pub fn next_1d(&mut self) -> f32 {
         let pair = self.pair;
@@ -195,7 +195,7 @@ impl PixelSampler {
         for (c, (samplers, points)) in chunks.enumerate() {
             let first = first.wrapping_add((c * AHEAD_LANES) as u32);
             let reversed: [u32; AHEAD_LANES] = std::array::from_fn(|i| first.wrapping_add(i as u32).reverse_bits());
-            let (xs, ys) = points_in_lanes(&reversed, h);
+            let (xs, ys) = points_in_lanes(&reversed, samplers.len(), h);
             for (i, (s, p)) in samplers.iter_mut().zip(points).enumerate() {
                 *s = Self::at_pair(key, reversed[i], 1);
                 *p = [xs[i], ys[i]];
@@ -223,7 +223,7 @@ impl PixelSampler {
                 *r = s.reversed_index;
             }
             for k in 0..pairs {
-                let (xs, ys) = points_in_lanes(&reversed, pair_hash(key, from + k as u32));
+                let (xs, ys) = points_in_lanes(&reversed, chunk.len(), pair_hash(key, from + k as u32));
                 for (i, s) in chunk.iter_mut().enumerate() {
                     s.ahead[k] = [xs[i], ys[i]];
                 }
@@ -238,11 +238,29 @@ impl PixelSampler {
 /// Samples whose points `draw_ahead` computes together: an AVX-512 register of 32-bit lanes.
 const AHEAD_LANES: usize = 16;
 
-/// `point_2d` of every index in `reversed` with one pair's scramble seeds `h`: the two
-/// coordinates' lanes. On x86-64 the lanes go to the widest vector unit the CPU has; the
-/// arithmetic is integer and exact, so every width gives the same bits.
-#[inline]
-fn points_in_lanes(reversed: &[u32; AHEAD_LANES], h: u64) -> ([f32; AHEAD_LANES], [f32; AHEAD_LANES]) {
+/// Fewer samples than this compute their points one at a time: a vector of 16 lanes costs
+/// about as much as this many scalar points.
+const VECTOR_FROM: usize = 4;
+
+/// `point_2d` of the first `n` indices in `reversed` with one pair's scramble seeds `h`: the two
+/// coordinates' lanes (past `n`, zeros or the points of the lanes' indices). On x86-64 the lanes
+/// go to the widest vector unit the CPU has; the arithmetic is integer and exact, so every
+/// width gives the same bits.
+#[inline(always)]
+fn points_in_lanes(reversed: &[u32; AHEAD_LANES], n: usize, h: u64) -> ([f32; AHEAD_LANES], [f32; AHEAD_LANES]) {
+    if n < VECTOR_FROM {
+        let (mut xs, mut ys) = ([0.0; AHEAD_LANES], [0.0; AHEAD_LANES]);
+        for i in 0..n.min(AHEAD_LANES) {
+            [xs[i], ys[i]] = point_2d(reversed[i], h);
+        }
+        return (xs, ys);
+    }
+    points_in_vector_lanes(reversed, h)
+}
+
+/// `points_in_lanes` of all the lanes, in the widest vector unit the CPU has.
+#[inline(never)]
+fn points_in_vector_lanes(reversed: &[u32; AHEAD_LANES], h: u64) -> ([f32; AHEAD_LANES], [f32; AHEAD_LANES]) {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx512bw") {
@@ -364,9 +382,9 @@ mod tests {
             }
         }
         let reversed: [u32; AHEAD_LANES] = std::array::from_fn(|i| (i as u32).wrapping_mul(0x9e37_79b9).reverse_bits());
-        for h in [0u64, 1, 0xdead_beef_cafe_f00d, u64::MAX] {
-            let (xs, ys) = points_in_lanes(&reversed, h);
-            for i in 0..AHEAD_LANES {
+        for (h, n) in [(0u64, 16), (1, 1), (0xdead_beef_cafe_f00d, 5), (u64::MAX, 3)] {
+            let (xs, ys) = points_in_lanes(&reversed, n, h);
+            for i in 0..n {
                 assert_eq!([xs[i], ys[i]], point_2d(reversed[i], h), "lane {i}");
             }
         }
