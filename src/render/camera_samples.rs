@@ -14,8 +14,9 @@ pub struct CameraSamples {
     pub hits: [Option<Surface>; MAX_PACKET],
     pub len: usize,
     /// Dimension pairs each sample's path draws after its camera pair, drawn ahead for all the
-    /// samples together once `trace` has found their hits (`PixelSampler::draw_ahead`; 0: none). Any count gives the same
-    /// numbers; the right one spares the most work (`integrator::path_pairs`).
+    /// samples together once `trace` has found their hits (`PixelSampler::draw_ahead`; 0:
+    /// none). Any count gives the same numbers; the right one spares the most work
+    /// (`integrator::path_pairs`).
     pub pairs_ahead: usize,
 }
 

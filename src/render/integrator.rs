@@ -53,6 +53,15 @@ impl LightDims {
         let lobe = (glossy && matches!(light, Light::Rect(_))).then(|| sampler.next_2d());
         LightDims { light: u, brdf, lobe }
     }
+
+    /// The pairs `draw` takes for `light` (a 1-D value takes a pair).
+    pub fn pairs(light: &Light, glossy: bool) -> usize {
+        match light {
+            Light::Environment(_) => 3,
+            Light::Rect(_) if glossy => 2,
+            Light::Rect(_) | Light::Point(_) => 1,
+        }
+    }
 }
 
 /// The dimension pairs one sample of `integrand` draws after its camera pair when its path
@@ -63,18 +72,13 @@ pub fn path_pairs(scene: &Scene, integrand: Integrand, bounces: u32) -> usize {
     match integrand {
         Integrand::AmbientOcclusion { .. } => 1,
         Integrand::Radiance => {
-            let per_light = |l: &Light| match l {
-                Light::Environment(_) => 3,
-                Light::Rect(_) if scene.glossy => 2,
-                Light::Rect(_) | Light::Point(_) => 1,
-            };
-            let per_vertex: usize = scene.lights.iter().map(per_light).sum();
+            let per_vertex: usize = scene.lights.iter().map(|l| LightDims::pairs(l, scene.glossy)).sum();
             per_vertex * (bounces as usize + 1) + 2 * bounces as usize
         }
     }
 }
 
-/// The dimension pairs of a sample split at its first hit as the AAF methods and `auto` split
+/// The dimension pairs of a sample split at its first hit as `aaf_indirect` and `auto` split
 /// it: every light's `LightDims` there, then a diffuse and a glossy direction, then the path
 /// on from the diffuse direction's hit with the bounces left (`path_pairs`).
 pub fn split_path_pairs(scene: &Scene, bounces: u32) -> usize {

@@ -250,7 +250,7 @@ const VECTOR_FROM: usize = 4;
 fn points_in_lanes(reversed: &[u32; AHEAD_LANES], n: usize, h: u64) -> ([f32; AHEAD_LANES], [f32; AHEAD_LANES]) {
     if n < VECTOR_FROM {
         let (mut xs, mut ys) = ([0.0; AHEAD_LANES], [0.0; AHEAD_LANES]);
-        for i in 0..n.min(AHEAD_LANES) {
+        for i in 0..n {
             [xs[i], ys[i]] = point_2d(reversed[i], h);
         }
         return (xs, ys);
