@@ -4,7 +4,10 @@
 //! Each measurement traces `spp` jittered camera paths per pixel into a fresh film, timed from
 //! the first sample to the last (no scene build, no frame output), as a render's passes do. The
 //! films of every thread count are compared: the sampler makes them bit-identical, and a
-//! difference is reported rather than hidden.
+//! difference is reported rather than hidden. The thread counts take turns, one trace each per
+//! round, so that a drift in the machine's speed (some hosts move by tens of per cent within
+//! the hour) falls on all of them alike, and the scaling is the median of each round's own
+//! ratio.
 use crate::pipeline::film::Film;
 use crate::pipeline::job::{CancelToken, Halt, Method, RenderJob, StopCheck};
 use crate::render::scene::Scene;
@@ -17,6 +20,8 @@ pub struct Measurement {
     pub threads: usize,
     /// Median seconds of the repeats.
     pub seconds: f64,
+    /// Each round's seconds, in order (`seconds` is their median).
+    pub rounds: Vec<f64>,
     pub samples: u64,
     /// Rays traced per repeat (camera, shadow and bounce rays).
     pub rays: u64,
@@ -43,11 +48,14 @@ pub struct SceneThroughput {
 }
 
 impl SceneThroughput {
-    /// Samples per second on the most threads over those on one (None without both).
+    /// Samples per second on the most threads over those on one (None without both): the
+    /// median over the rounds of each round's ratio, the two traces of a round taken minutes
+    /// apart at most.
     pub fn scaling(&self) -> Option<f64> {
         let one = self.by_threads.iter().find(|m| m.threads == 1)?;
         let most = self.by_threads.iter().max_by_key(|m| m.threads).filter(|m| m.threads > 1)?;
-        Some(most.samples_per_second() / one.samples_per_second())
+        let ratios = one.rounds.iter().zip(&most.rounds).map(|(a, b)| a / b).collect();
+        Some(super::median(ratios))
     }
 }
 
@@ -67,27 +75,33 @@ fn trace_once(job: &RenderJob, spp: u32, pool: &rayon::ThreadPool) -> anyhow::Re
     Ok((start.elapsed().as_secs_f64(), tally.rays, film))
 }
 
-/// Measures `job` at `spp` on each of `threads`, `repeats` times each (the median is kept),
-/// after one untimed warm-up trace per thread count.
+/// Measures `job` at `spp` on each of `threads`: one untimed warm-up trace per thread count,
+/// then `repeats` rounds in which each thread count traces once in turn (the median is kept).
 pub fn measure(job: &RenderJob, spp: u32, threads: &[usize], repeats: usize) -> anyhow::Result<SceneThroughput> {
     anyhow::ensure!(spp > 0, "--spp must be at least 1");
+    anyhow::ensure!(threads.iter().all(|&n| n > 0), "--threads: thread counts must be at least 1");
     let samples = job.width() as u64 * job.height() as u64 * spp as u64;
+    let mut pools = Vec::new();
     let mut by_threads = Vec::new();
     let mut first_film: Option<Film> = None;
     let mut identical = true;
     for &n in threads {
-        anyhow::ensure!(n > 0, "--threads: thread counts must be at least 1");
         let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build()?;
         let (_, rays, film) = trace_once(job, spp, &pool)?;
         match &first_film {
             None => first_film = Some(film),
             Some(f) => identical &= f.pixels == film.pixels,
         }
-        let mut seconds = Vec::new();
-        for _ in 0..repeats.max(1) {
-            seconds.push(trace_once(job, spp, &pool)?.0);
+        pools.push(pool);
+        by_threads.push(Measurement { threads: n, seconds: 0.0, rounds: Vec::new(), samples, rays });
+    }
+    for _ in 0..repeats.max(1) {
+        for (m, pool) in by_threads.iter_mut().zip(&pools) {
+            m.rounds.push(trace_once(job, spp, pool)?.0);
         }
-        by_threads.push(Measurement { threads: n, seconds: super::median(seconds), samples, rays });
+    }
+    for m in &mut by_threads {
+        m.seconds = super::median(m.rounds.clone());
     }
     Ok(SceneThroughput { bounces: job.bounces, spp, by_threads, identical })
 }
@@ -96,6 +110,30 @@ pub fn measure(job: &RenderJob, spp: u32, threads: &[usize], repeats: usize) -> 
 mod tests {
     use super::*;
     use crate::bench::rays::terrain_builder;
+
+    /// A drift between rounds moves both thread counts of a round alike: the median of the
+    /// rounds' ratios sees through it where the ratio of the medians does not.
+    #[test]
+    fn scaling_is_the_median_of_each_rounds_ratio() {
+        let m = |threads, rounds: Vec<f64>| Measurement {
+            threads,
+            seconds: crate::bench::median(rounds.clone()),
+            rounds,
+            samples: 100,
+            rays: 100,
+        };
+        // The machine slows down 2x after the first round.
+        let t = SceneThroughput {
+            bounces: 0,
+            spp: 1,
+            by_threads: vec![m(1, vec![1.0, 2.0, 2.2]), m(2, vec![0.5, 1.0, 1.2])],
+            identical: true,
+        };
+        assert_eq!(t.scaling(), Some(2.0));
+        assert!((t.by_threads[1].samples_per_second() / t.by_threads[0].samples_per_second() - 2.0).abs() < 1e-9);
+        let alone = SceneThroughput { by_threads: vec![m(1, vec![1.0])], ..t };
+        assert_eq!(alone.scaling(), None);
+    }
 
     #[test]
     fn counts_samples_and_rays_and_films_agree_across_threads() {
@@ -111,6 +149,9 @@ mod tests {
             assert!(m.seconds > 0.0 && m.samples_per_second().is_finite());
         }
         assert_eq!(t.by_threads[0].rays, t.by_threads[1].rays);
+        // The scaling is the median of each round's ratio of the two thread counts' seconds.
+        let ratio = t.by_threads[0].rounds[0] / t.by_threads[1].rounds[0];
+        assert_eq!(t.scaling(), Some(ratio));
         // Direct light only: one camera ray and one shadow ray at most per sample.
         let d = measure(&job(scene, 0, 3), 1, &[1], 1).unwrap();
         assert!(d.by_threads[0].rays <= 2 * d.by_threads[0].samples);

@@ -520,7 +520,8 @@ pub struct ThroughputArgs {
     /// Samples per pixel of each timed trace.
     #[arg(long, default_value_t = 16)]
     spp: u32,
-    /// Timed traces per point (the median is reported).
+    /// Rounds of timed traces: each thread count traces once per round, in turn (medians are
+    /// reported; the scaling is the median of the rounds' own ratios).
     #[arg(long, default_value_t = 3)]
     repeats: usize,
     #[arg(long, default_value_t = 1)]
@@ -564,7 +565,8 @@ fn throughput(a: ThroughputArgs) -> anyhow::Result<()> {
                 );
                 rows.push(serde_json::json!({"scene": name, "triangles": scene.triangle_count(), "bounces": b,
                     "threads": m.threads, "spp": t.spp, "width": width, "height": height, "seconds": m.seconds,
-                    "samples": m.samples, "rays": m.rays, "identical": t.identical}));
+                    "samples": m.samples, "rays": m.rays, "identical": t.identical, "rounds": m.rounds,
+                    "scaling": t.scaling()}));
             }
         }
     }
