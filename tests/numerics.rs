@@ -222,23 +222,7 @@ proptest! {
             s.camera.as_mut().unwrap().position = Some(proto::Vec3 { x: 0.1 * k, y: 0.6 * k, z: 0.2 * k });
         }
         let scene = Arc::new(compile(&s, &SceneLimits::default(), None).expect("valid scene"));
-        let job = RenderJob {
-bandwidth: Default::default(),
-            view: scene.default_view(),
-            scene,
-            method,
-            halt: Halt { max_passes: 2, max_mean_spp: 0.0, time_budget: None, target_error: None },
-            seed: 1,
-            bounces: 2,
-            initial_spp: 1,
-            aaf: Default::default(),
-            integrand: Default::default(),
-            pixel_centers: false,
-            indirect: Default::default(),
-            lobe: Default::default(),
-            auto: Default::default(),
-            aov_samples: 0,
-        };
+        let job = RenderJob { seed: 1, bounces: 2, ..RenderJob::new(scene, method, Halt::passes(2)) };
         let mut last: Option<Frame> = None;
         render(&job, &CancelToken::new(), &mut |f| { last = Some(f.clone()); true }).expect("render");
         let f = last.expect("a frame");

@@ -35,23 +35,8 @@ pub fn job(
     seed: u64,
     bounces: u32,
 ) -> RenderJob {
-    RenderJob {
-        bandwidth: Default::default(),
-        view: scene.default_view(),
-        scene,
-        method,
-        halt: Halt { max_passes, max_mean_spp, time_budget: None, target_error: None },
-        seed,
-        bounces,
-        initial_spp: 1,
-        aaf: Default::default(),
-        integrand: Default::default(),
-        pixel_centers: false,
-        indirect: Default::default(),
-        lobe: Default::default(),
-        auto: Default::default(),
-        aov_samples: 0,
-    }
+    let halt = Halt { max_passes, max_mean_spp, time_budget: None, target_error: None };
+    RenderJob { seed, bounces, ..RenderJob::new(scene, method, halt) }
 }
 
 /// The last frame of a render.

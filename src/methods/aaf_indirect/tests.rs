@@ -13,28 +13,8 @@ fn scene(json: &str) -> Arc<Scene> {
 /// `passes` passes after the preview (pass 0) for the AAF family, whose `frames` drop it: frame
 /// k of these tests is pass k + 1 of the render, the k-th frame of the analysis proper.
 fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64, bounces: u32) -> RenderJob {
-    RenderJob {
-        bandwidth: Default::default(),
-        view: scene.default_view(),
-        scene,
-        method,
-        halt: Halt {
-            max_passes: passes + (method != Method::Uniform) as u32,
-            max_mean_spp: 0.0,
-            time_budget: None,
-            target_error: None,
-        },
-        seed,
-        bounces,
-        initial_spp: 1,
-        aaf: Default::default(),
-        integrand: Integrand::Radiance,
-        pixel_centers: false,
-        indirect: IndirectOptions::default(),
-        lobe: Default::default(),
-        auto: Default::default(),
-        aov_samples: 0,
-    }
+    let halt = Halt::passes(passes + (method != Method::Uniform) as u32);
+    RenderJob { seed, bounces, ..RenderJob::new(scene, method, halt) }
 }
 
 use super::super::tests::{builtin, frames, rmse};

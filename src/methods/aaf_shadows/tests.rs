@@ -51,28 +51,7 @@ fn shadow_scene(w: u32, h: u32, scale: f32, profile: EmissionProfile, lights: us
 /// `passes` passes after the preview (pass 0) for the AAF family, whose `frames` drop it: frame
 /// k of these tests is pass k + 1 of the render, the k-th frame of the analysis proper.
 fn job(scene: Arc<Scene>, method: Method, passes: u32, seed: u64) -> RenderJob {
-    RenderJob {
-        bandwidth: Default::default(),
-        view: scene.default_view(),
-        scene,
-        method,
-        halt: Halt {
-            max_passes: passes + (method != Method::Uniform) as u32,
-            max_mean_spp: 0.0,
-            time_budget: None,
-            target_error: None,
-        },
-        seed,
-        bounces: 0,
-        initial_spp: 1,
-        aaf: AafOptions::default(),
-        integrand: Default::default(),
-        pixel_centers: false,
-        indirect: Default::default(),
-        lobe: Default::default(),
-        auto: Default::default(),
-        aov_samples: 0,
-    }
+    RenderJob { seed, ..RenderJob::new(scene, method, Halt::passes(passes + (method != Method::Uniform) as u32)) }
 }
 
 use super::super::tests::{frames, rmse};

@@ -41,23 +41,7 @@ pub(crate) fn small_scene(width: u32, height: u32) -> Arc<Scene> {
 }
 
 fn job(scene: Arc<Scene>, halt: Halt) -> RenderJob {
-    RenderJob {
-        bandwidth: Default::default(),
-        view: scene.default_view(),
-        scene,
-        method: Method::Uniform,
-        halt,
-        seed: 7,
-        bounces: 1,
-        initial_spp: 1,
-        aaf: Default::default(),
-        integrand: Default::default(),
-        pixel_centers: false,
-        indirect: Default::default(),
-        lobe: Default::default(),
-        auto: Default::default(),
-        aov_samples: 0,
-    }
+    RenderJob { seed: 7, bounces: 1, ..RenderJob::new(scene, Method::Uniform, halt) }
 }
 
 fn frames(job: &RenderJob) -> Vec<Frame> {
