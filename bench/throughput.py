@@ -13,11 +13,13 @@ vectorised `llvm_ad_rgb` path tracer on the same scenes, in one run.
 Not run in CI. Prints Markdown for BENCHMARKS.md ("Throughput").
 
 1. `wedge bench throughput` times wedge's path tracer alone (no scene build, no output) at
-   --spp on 1 and 2 threads, on the scenes and the procedural 1M-triangle terrain.
+   --spp on 1 and 2 threads, on the scenes and the procedural 1M-triangle terrain; the thread
+   counts take turns, and "2 / 1 thread" is the median of each round's ratio.
 2. Mitsuba renders the same scenes (converted by mitsuba_compare.py: same triangles, camera,
    BRDFs, emitters; max_depth = bounces + 2; box filter; `independent` sampler) at the same spp
    on 1 and 2 threads (`drjit.set_thread_count`), timed warm (a first render compiles the
-   kernels) up to the image in numpy. Samples per second = width x height x spp / seconds.
+   kernels) up to the image in numpy, straight after wedge's measurement of the same scene and
+   bounce count. Samples per second = width x height x spp / seconds.
 3. Efficiency, 1 / (MSE x seconds), of both at that spp on 2 threads: MSE against a high-spp
    wedge reference (cached in bench-results/cache, shared with race.py), the light's pixels and
    their neighbours left out as race.py does; wedge timed by `wedge render --method uniform
@@ -81,6 +83,7 @@ def parse_args():
 
 
 def wedge_throughput(args, scenes, bounces, threads, binary, terrain, repeats):
+    """`wedge bench throughput`'s JSON rows for `scenes` (and the terrain) at `bounces`."""
     with tempfile.TemporaryDirectory() as tmp:
         out = os.path.join(tmp, "t.json")
         cmd = [binary, "bench", "throughput", "--scenes", ",".join(scenes), "--bounces", ",".join(map(str, bounces)),
@@ -178,28 +181,43 @@ def main():
         print(f"Left out (glossy, the converter's BSDF is a Python plugin): {', '.join(glossy)}\n")
         scenes = [s for s in scenes if s not in glossy]
     binary = os.path.join(ROOT, "target", "release", "wedge")
-    rows = wedge_throughput(args, scenes, args.bounces, args.threads, binary, not args.no_terrain, args.repeats)
     mc = None
     if not args.no_mitsuba:
         problem = race.probe_llvm(paths[scenes[0]], 0)
         if problem:
             raise SystemExit(f"Mitsuba llvm_ad_rgb does not run here: {problem}")
         mc = race.import_converter(race.LLVM)
-    print("| scene | triangles | bounces | threads | wedge M samples/s | wedge M rays/s | Mitsuba M samples/s | wedge / Mitsuba |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| scene | triangles | bounces | threads | wedge M samples/s | wedge M rays/s | wedge 2 / 1 thread | Mitsuba M samples/s | wedge / Mitsuba |")
+    print("|---|---|---|---|---|---|---|---|---|")
     eff_rows = []
-    for r in rows:
-        mit = None
-        sc = None
-        if mc is not None and r["scene"] in paths:
-            secs, sc = mitsuba_throughput(args, mc, docs[r["scene"]], r["bounces"], r["threads"])
-            mit = args.width * args.height * args.spp / secs
-        ws = r["samples"] / r["seconds"]
-        print(f"| {r['scene']} | {r['triangles']} | {r['bounces']} | {r['threads']} | {ws / 1e6:.2f} | "
-              f"{r['rays'] / r['seconds'] / 1e6:.2f} | {race.f(mit and mit / 1e6, '.2f')} | {race.f(mit and ws / mit, '.2f')} |",
-              flush=True)
-        if sc is not None and r["threads"] == max(args.threads):
-            eff_rows.append((r["scene"], r["bounces"], efficiency(args, mc, paths[r["scene"]], r["bounces"], sc)))
+
+    def print_rows(rows):
+        """Prints wedge's rows, each with Mitsuba's figure for the same case measured now."""
+        for r in rows:
+            mit = None
+            sc = None
+            if mc is not None and r["scene"] in paths:
+                secs, sc = mitsuba_throughput(args, mc, docs[r["scene"]], r["bounces"], r["threads"])
+                mit = args.width * args.height * args.spp / secs
+            ws = r["samples"] / r["seconds"]
+            scaling = r.get("scaling") if r["threads"] == max(args.threads) else None
+            print(f"| {r['scene']} | {r['triangles']} | {r['bounces']} | {r['threads']} | {ws / 1e6:.2f} | "
+                  f"{r['rays'] / r['seconds'] / 1e6:.2f} | {race.f(scaling, '.2f')} | {race.f(mit and mit / 1e6, '.2f')} | "
+                  f"{race.f(mit and ws / mit, '.2f')} |", flush=True)
+            if sc is not None and r["threads"] == max(args.threads):
+                eff_rows.append((r["scene"], r["bounces"], efficiency(args, mc, paths[r["scene"]], r["bounces"], sc)))
+
+    # Each scene and bounce count: wedge, then Mitsuba straight after, so that a drift in the
+    # host's speed (tens of per cent within the hour on some hosts) moves both sides alike. The
+    # terrain (wedge alone) is traced with the first scene and printed last.
+    terrain_rows = []
+    for name in scenes:
+        for b in args.bounces:
+            terrain = name == scenes[0] and not args.no_terrain
+            rows = wedge_throughput(args, [name], [b], args.threads, binary, terrain, args.repeats)
+            terrain_rows += [r for r in rows if r["scene"] == "terrain"]
+            print_rows([r for r in rows if r["scene"] != "terrain"])
+    print_rows(terrain_rows)
     if eff_rows:
         print(f"\nEfficiency 1 / (MSE x seconds) at {args.spp} spp on every core (medians of {args.seeds} seeds):\n")
         print("| scene | bounces | wedge s | wedge RMSE | Mitsuba s | Mitsuba RMSE | efficiency, wedge / Mitsuba |")
