@@ -44,8 +44,8 @@ impl Strategy for Uniform {
         })
     }
 
-    fn frame(&mut self, _ctx: &PassContext) -> Frame {
-        Frame {
+    fn frame(&mut self, _ctx: &PassContext) -> Result<Frame, RenderError> {
+        Ok(Frame {
             shading: None,
             width: self.film.width,
             height: self.film.height,
@@ -63,7 +63,7 @@ impl Strategy for Uniform {
                 dropped_samples: self.dropped,
                 ..FrameStats::default()
             },
-        }
+        })
     }
 }
 

@@ -87,7 +87,7 @@ pub fn render_frames(
         };
         let out_of_time = !complete || deadline.is_some_and(|d| Instant::now() >= d);
         let compose = halt.target_error.is_some() || limit != HaltReason::None || out_of_time || wanted(pass);
-        let mut frame = compose.then(|| strategy.frame(&ctx));
+        let mut frame = if compose { Some(strategy.frame(&ctx)?) } else { None };
         // A pass the deadline cut left most pixels as they were: the change since the previous
         // frame says little about the error, so a cut frame claims no estimate.
         let estimate = frame.as_ref().and_then(|f| error.update(f)).filter(|_| complete);

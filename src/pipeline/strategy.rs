@@ -50,8 +50,10 @@ pub trait Strategy: Send {
 
     /// The frame of every sample so far (stats: mean spp, rays, dropped samples and method
     /// seconds filled in; the progressive loop fills in the rest). Called after `sample` of
-    /// the same pass.
-    fn frame(&mut self, ctx: &PassContext) -> Frame;
+    /// the same pass. A cancelled render may end here with `RenderError::Cancelled` (its frame
+    /// would be thrown away: a session's camera change waits for this to return); a deadline
+    /// never cuts a frame short.
+    fn frame(&mut self, ctx: &PassContext) -> Result<Frame, RenderError>;
 }
 
 /// Strategies that each render one part of the light; a frame is the sum of theirs. The
@@ -78,10 +80,16 @@ impl Strategy for SumOfParts {
         Ok(total)
     }
 
-    fn frame(&mut self, ctx: &PassContext) -> Frame {
-        let mut frames = self.parts.iter_mut().map(|part| part.frame(ctx));
-        let first = frames.next().unwrap_or_default();
-        frames.fold(first, add_frames)
+    fn frame(&mut self, ctx: &PassContext) -> Result<Frame, RenderError> {
+        let mut sum: Option<Frame> = None;
+        for part in &mut self.parts {
+            let frame = part.frame(ctx)?;
+            sum = Some(match sum {
+                None => frame,
+                Some(s) => add_frames(s, frame),
+            });
+        }
+        Ok(sum.unwrap_or_default())
     }
 }
 

@@ -42,7 +42,7 @@ use super::lobe_aware::options::LobeAwareOptions;
 use super::mode::FilterMode;
 use crate::pipeline::film::{interleave_rank, mean, Tally};
 use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
-use crate::pipeline::job::{Integrand, RenderError, RenderJob};
+use crate::pipeline::job::{CancelToken, Integrand, RenderError, RenderJob};
 use crate::pipeline::strategy::{PassContext, Sampled, Strategy};
 use crate::render::camera_samples::CameraSamples;
 use crate::render::filter::{FilterKernel, FilterSurface};
@@ -418,7 +418,9 @@ impl IndirectStrategy {
 
     /// Builds the frame of pass `pass`: filters each component and composes. Every per-pixel
     /// loop runs in parallel: at 640x480 the serial ones cost as much as a filter pass.
-    fn compose(&self, scene: &Scene, pass: u32) -> Frame {
+    /// The frame of every sample so far; a cancelled render stops between parts and inside
+    /// the lobe-aware gathers (`BilateralOptions::cancel`) with `RenderError::Cancelled`.
+    fn compose(&self, scene: &Scene, pass: u32, cancel: &CancelToken) -> Result<Frame, RenderError> {
         let n = self.width * self.height;
         let mut color: Vec<[f64; 3]> = self.sums.par_iter().map(|s| mean(s.direct, s.taken)).collect();
         let mut unfiltered = color.clone();
@@ -467,7 +469,7 @@ impl IndirectStrategy {
                 // An upsampled pixel's kernel is that of its sites, which have its samples.
                 let n = |p: usize| if traced(p) { at(p).n } else { self.sums[p].taken };
                 let sigma = |p: usize| o.sigma_px(n(p) as f64, initial);
-                self.filter_tokuyoshi(part, sigma, &mut light, &mut raw_light, &mut part_width, &mut width_px);
+                self.filter_tokuyoshi(part, sigma, &mut light, &mut raw_light, &mut part_width, &mut width_px, cancel);
             } else if let (Some(surface), Some(kernels)) = (&self.surface, &kernels) {
                 part_width.par_iter_mut().zip(width_px.par_iter_mut()).zip(kernels).for_each(|((pw, wp), k)| {
                     if k.beta > 0.0 && k.d > 0.0 {
@@ -476,6 +478,9 @@ impl IndirectStrategy {
                     }
                 });
                 surface.filter(kernels, &mut light);
+            }
+            if cancel.is_cancelled() {
+                return Err(RenderError::Cancelled);
             }
             let which = if part == Part::Glossy { 1 } else { 0 };
             color.par_iter_mut().zip(unfiltered.par_iter_mut()).enumerate().for_each(|(p, (color, unfiltered))| {
@@ -504,7 +509,7 @@ impl IndirectStrategy {
         }
         let spp: Vec<f32> = self.sums.par_iter().map(|s| s.taken as f32).collect();
         let to_f32 = |v: Vec<[f64; 3]>| v.into_par_iter().map(|c| c.map(|x| x.max(0.0) as f32)).collect::<Vec<_>>();
-        Frame {
+        Ok(Frame {
             shading: None,
             width: self.width as u32,
             height: self.height as u32,
@@ -521,7 +526,7 @@ impl IndirectStrategy {
             spp,
             filter_width: filters.then_some(width_px),
             components,
-        }
+        })
     }
 }
 
@@ -547,12 +552,13 @@ impl Strategy for IndirectStrategy {
         Ok(Sampled { complete, mean_spp, rays_traced: self.rays, dropped_samples: self.dropped })
     }
 
-    fn frame(&mut self, ctx: &PassContext) -> Frame {
+    fn frame(&mut self, ctx: &PassContext) -> Result<Frame, RenderError> {
         let t = Instant::now();
-        let mut frame = self.compose(ctx.scene, ctx.pass);
+        let frame = self.compose(ctx.scene, ctx.pass, &ctx.stop.cancel);
         self.method_seconds += t.elapsed().as_secs_f64();
+        let mut frame = frame?;
         frame.stats.method_seconds = self.method_seconds;
-        frame
+        Ok(frame)
     }
 }
 

@@ -8,6 +8,7 @@ use crate::methods::lobe_aware::lobe;
 use crate::methods::lobe_aware::options::{LobeAwareOptions, LobeShape};
 use crate::methods::lobe_aware::upsample::{upsample, weight_sums, Grid, UpsampleWeights};
 use crate::methods::mode::FilterMode;
+use crate::pipeline::job::CancelToken;
 use crate::pipeline::strategy::PassContext;
 use crate::render::gbuffer::{GBuffer, GSample};
 use rayon::prelude::*;
@@ -104,7 +105,9 @@ impl IndirectStrategy {
     /// it), the pixels without samples of the part get the filtered light of their sites,
     /// upsampled, and the gather is the full 2-D one (the separable one would miss the rows
     /// without sites); `raw` gets the unfiltered light upsampled the same way (the stream's
-    /// unfiltered layer).
+    /// unfiltered layer). Once `cancel` trips, the gather stops and leaves `light` as it was
+    /// (`compose` then throws the frame away).
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn filter_tokuyoshi(
         &self,
         part: Part,
@@ -113,6 +116,7 @@ impl IndirectStrategy {
         raw: &mut [[f64; 3]],
         part_width: &mut [f32],
         width_px: &mut [f32],
+        cancel: &CancelToken,
     ) {
         let o = &self.lobe_opts;
         let index = self.parts().iter().position(|&p| p == part).expect("guides for every part");
@@ -136,7 +140,11 @@ impl IndirectStrategy {
         };
         // Each pixel's light is the mean over its samples that found a reflecting surface.
         let counts: Vec<f64> = self.sums.par_iter().map(|s| part.of(s).surface as f64).collect();
-        *light = filter::filter_counted(&guides, self.width, light, Some(&counts), &opts).values;
+        // Cancelled: `compose` throws the frame away.
+        let Some(f) = filter::filter_counted_until(&guides, self.width, light, Some(&counts), &opts, cancel) else {
+            return;
+        };
+        *light = f.values;
         for ((pw, wp), g) in part_width.iter_mut().zip(width_px.iter_mut()).zip(&guides) {
             *pw = g.sigma_px as f32;
             *wp = wp.max(*pw);

@@ -528,11 +528,11 @@ impl Strategy for ShadowStrategy {
         Ok(Sampled { complete, mean_spp: self.mean_spp(), rays_traced: self.rays, dropped_samples: self.dropped })
     }
 
-    fn frame(&mut self, ctx: &PassContext) -> Frame {
+    fn frame(&mut self, ctx: &PassContext) -> Result<Frame, RenderError> {
         let (mut frame, filtering) = self.compose(ctx.pass);
         self.method_seconds += filtering;
         frame.stats.method_seconds = self.method_seconds;
-        frame
+        Ok(frame)
     }
 }
 

@@ -175,7 +175,7 @@ fn each_light_has_its_own_counts_and_they_add_up() {
     for pass in 0..4 {
         let ctx = PassContext { scene: &j.scene, job: &j, view: &j.view, pass, stop: &stop, gbuffer: Some(&g) };
         st.sample(&ctx).expect("pass");
-        last = Some(Strategy::frame(&mut st, &ctx));
+        last = Some(Strategy::frame(&mut st, &ctx).expect("frame"));
     }
     let frame = last.unwrap();
     let shadow = &frame.components[0];

@@ -629,7 +629,7 @@ impl Strategy for AutoStrategy {
         Ok(Sampled { complete, mean_spp, rays_traced: self.rays, dropped_samples: self.dropped })
     }
 
-    fn frame(&mut self, ctx: &PassContext) -> Frame {
+    fn frame(&mut self, ctx: &PassContext) -> Result<Frame, RenderError> {
         let t = Instant::now();
         if std::mem::take(&mut self.reflectors_stale) {
             if let Some(w) = self.widths.as_mut() {
@@ -645,6 +645,6 @@ impl Strategy for AutoStrategy {
         tracing::debug!(pass = ctx.pass, seconds = t.elapsed().as_secs_f64(), "auto: filters");
         self.method_seconds += t.elapsed().as_secs_f64();
         frame.stats.method_seconds = self.method_seconds;
-        frame
+        Ok(frame)
     }
 }

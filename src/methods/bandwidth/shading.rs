@@ -412,7 +412,7 @@ impl Strategy for BandwidthShading {
         Ok(Sampled { complete: tally.complete, mean_spp, rays_traced: self.rays, dropped_samples: self.dropped })
     }
 
-    fn frame(&mut self, ctx: &PassContext) -> Frame {
+    fn frame(&mut self, ctx: &PassContext) -> Result<Frame, RenderError> {
         let start = Instant::now();
         let visibility = ctx.job.bandwidth.visibility;
         let color = self.pixels.iter().zip(&self.s_hat).map(|(px, s)| px.estimate(s.as_ref(), visibility)).collect();
@@ -425,7 +425,7 @@ impl Strategy for BandwidthShading {
         self.method_seconds += start.elapsed().as_secs_f64();
         let n = self.pixels.len().max(1) as f64;
         let (shaded_points, full_resolution_points) = self.pass_points;
-        Frame {
+        Ok(Frame {
             width: self.width,
             height: self.height,
             color,
@@ -444,6 +444,6 @@ impl Strategy for BandwidthShading {
                 full_resolution_points,
                 ..FrameStats::default()
             },
-        }
+        })
     }
 }

@@ -15,6 +15,7 @@
 use super::asg::AsgLobe;
 use super::sg::Sg;
 use super::weights::{ln_depth_weight, ln_lobe_weight, ln_normal_weight};
+use crate::pipeline::job::CancelToken;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -115,6 +116,32 @@ pub fn filter_counted(
     counts: Option<&[f64]>,
     o: &BilateralOptions,
 ) -> Filtered {
+    filtered(guides, width, values, counts, o, None)
+}
+
+/// `filter_counted` that a render's cancellation stops: None once `cancel` has tripped (the
+/// rows not begun by then are left out, and the frame they were for is thrown away), so that
+/// a cancelled render does not wait for a wide gather to end.
+pub fn filter_counted_until(
+    guides: &[Guide],
+    width: usize,
+    values: &[[f64; 3]],
+    counts: Option<&[f64]>,
+    o: &BilateralOptions,
+    cancel: &CancelToken,
+) -> Option<Filtered> {
+    let f = filtered(guides, width, values, counts, o, Some(cancel));
+    (!cancel.is_cancelled()).then_some(f)
+}
+
+fn filtered(
+    guides: &[Guide],
+    width: usize,
+    values: &[[f64; 3]],
+    counts: Option<&[f64]>,
+    o: &BilateralOptions,
+    cancel: Option<&CancelToken>,
+) -> Filtered {
     assert_eq!(guides.len(), values.len(), "one guide per value");
     assert!(counts.is_none_or(|c| c.len() == values.len()), "one count per value");
     let height = guides.len().checked_div(width).unwrap_or(0);
@@ -130,7 +157,7 @@ pub fn filter_counted(
             }
         })
         .collect();
-    let image = Image { guides, width, height, o, counts };
+    let image = Image { guides, width, height, o, counts, cancel };
     let (values, weight_sums) = match o.gather {
         Gather::Full => image.pass(&clean, |x, y, r| image.square(x, y, r)),
         Gather::Separable => {
@@ -147,6 +174,8 @@ struct Image<'a> {
     height: usize,
     o: &'a BilateralOptions,
     counts: Option<&'a [f64]>,
+    /// Checked before each row: once it trips, the rows left are zeros.
+    cancel: Option<&'a CancelToken>,
 }
 
 impl Image<'_> {
@@ -159,7 +188,12 @@ impl Image<'_> {
     ) -> (Vec<[f64; 3]>, Vec<f64>) {
         let rows: Vec<Vec<([f64; 3], f64)>> = (0..self.height)
             .into_par_iter()
-            .map(|y| (0..self.width).map(|x| self.gather(values, x, y, &neighbours)).collect())
+            .map(|y| {
+                if self.cancel.is_some_and(CancelToken::is_cancelled) {
+                    return vec![([0.0; 3], 0.0); self.width];
+                }
+                (0..self.width).map(|x| self.gather(values, x, y, &neighbours)).collect()
+            })
             .collect();
         rows.into_iter().flatten().unzip()
     }
@@ -296,6 +330,23 @@ mod tests {
             let normal = filter(&guides, w, &values, &make(Similarity::Normal { sigma_n2: 0.01 }));
             assert!((lobe.values[edge][0] - 1.0).abs() < 0.01, "lobe-aware: {}", lobe.values[edge][0]);
             assert!(normal.values[edge][0] > 1.5, "normal-aware: {}", normal.values[edge][0]);
+        }
+    }
+
+    /// A live token changes nothing; a tripped one gives no image, whichever the gather.
+    #[test]
+    fn a_cancelled_gather_gives_no_image() {
+        let (w, h) = (12, 9);
+        let guides = flat(w, h, 2.0);
+        let values: Vec<[f64; 3]> = (0..w * h).map(|i| [(i % 7) as f64, 1.0, (i % 3) as f64]).collect();
+        let (live, tripped) = (CancelToken::new(), CancelToken::new());
+        tripped.cancel();
+        for make in [opts, separable] {
+            let o = make(Similarity::Lobe { beta: 20.0 });
+            let whole = filter_counted(&guides, w, &values, None, &o);
+            let until = filter_counted_until(&guides, w, &values, None, &o, &live).expect("not cancelled");
+            assert_eq!((until.values, until.weight_sums), (whole.values, whole.weight_sums));
+            assert!(filter_counted_until(&guides, w, &values, None, &o, &tripped).is_none());
         }
     }
 

@@ -209,3 +209,26 @@ fn the_upsampled_stream_returns_to_full_resolution_and_converges() {
         assert!(e < 0.01 * mean(&last.color), "factor {factor}: rmse {e}");
     }
 }
+
+/// A camera change cancels the running render; a frame being filtered then ends at once with
+/// `Cancelled` (a session's next view waits for it), and the strategy still gives the frame
+/// once asked with a live token.
+#[test]
+fn a_cancelled_render_stops_inside_the_frame() {
+    use crate::methods::aaf_indirect::IndirectStrategy;
+    use crate::methods::mode::FilterMode;
+    use crate::pipeline::job::{CancelToken, RenderError, StopCheck};
+    use crate::pipeline::strategy::{PassContext, Strategy};
+    use crate::render::gbuffer::GBuffer;
+    let j = job(builtin("cornell-glossy", 24, 18), Method::LobeAware, 1, 3, 1);
+    let g = Arc::new(GBuffer::build(&j.scene, &j.view));
+    let mut st = IndirectStrategy::new(&j, FilterMode::LobeAware, true);
+    let (live, cancelled) = (CancelToken::new(), CancelToken::new());
+    cancelled.cancel();
+    let (go, stop) = (StopCheck::cancel_only(&live), StopCheck::cancel_only(&cancelled));
+    let ctx = |stop| PassContext { scene: &j.scene, job: &j, view: &j.view, pass: 0, stop, gbuffer: Some(&g) };
+    st.sample(&ctx(&go)).expect("pass 0");
+    assert!(matches!(st.frame(&ctx(&stop)), Err(RenderError::Cancelled)));
+    let frame = st.frame(&ctx(&go)).expect("a live render's frame");
+    assert!(frame.color.iter().flatten().all(|v| v.is_finite()) && frame.color.iter().flatten().any(|&v| v > 0.0));
+}
