@@ -141,7 +141,8 @@ impl IndirectStrategy {
         // Each pixel's light is the mean over its samples that found a reflecting surface.
         let counts: Vec<f64> = self.sums.par_iter().map(|s| part.of(s).surface as f64).collect();
         // Cancelled: `compose` throws the frame away.
-        let Some(f) = filter::filter_counted_until(&guides, self.width, light, Some(&counts), &opts, cancel) else {
+        let cancelled = || cancel.is_cancelled();
+        let Some(f) = filter::filter_counted_until(&guides, self.width, light, Some(&counts), &opts, &cancelled) else {
             return;
         };
         *light = f.values;

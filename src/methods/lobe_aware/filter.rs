@@ -15,7 +15,6 @@
 use super::asg::AsgLobe;
 use super::sg::Sg;
 use super::weights::{ln_depth_weight, ln_lobe_weight, ln_normal_weight};
-use crate::pipeline::job::CancelToken;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -119,19 +118,20 @@ pub fn filter_counted(
     filtered(guides, width, values, counts, o, None)
 }
 
-/// `filter_counted` that a render's cancellation stops: None once `cancel` has tripped (the
+/// `filter_counted` that a render's cancellation stops: None once `cancelled()` is true (the
 /// rows not begun by then are left out, and the frame they were for is thrown away), so that
-/// a cancelled render does not wait for a wide gather to end.
+/// a cancelled render does not wait for a wide gather to end. (A closure, not the pipeline's
+/// token: the pipeline's job holds this module's options.)
 pub fn filter_counted_until(
     guides: &[Guide],
     width: usize,
     values: &[[f64; 3]],
     counts: Option<&[f64]>,
     o: &BilateralOptions,
-    cancel: &CancelToken,
+    cancelled: &(dyn Fn() -> bool + Sync),
 ) -> Option<Filtered> {
-    let f = filtered(guides, width, values, counts, o, Some(cancel));
-    (!cancel.is_cancelled()).then_some(f)
+    let f = filtered(guides, width, values, counts, o, Some(cancelled));
+    (!cancelled()).then_some(f)
 }
 
 fn filtered(
@@ -140,7 +140,7 @@ fn filtered(
     values: &[[f64; 3]],
     counts: Option<&[f64]>,
     o: &BilateralOptions,
-    cancel: Option<&CancelToken>,
+    cancelled: Option<&(dyn Fn() -> bool + Sync)>,
 ) -> Filtered {
     assert_eq!(guides.len(), values.len(), "one guide per value");
     assert!(counts.is_none_or(|c| c.len() == values.len()), "one count per value");
@@ -157,7 +157,7 @@ fn filtered(
             }
         })
         .collect();
-    let image = Image { guides, width, height, o, counts, cancel };
+    let image = Image { guides, width, height, o, counts, cancelled };
     let (values, weight_sums) = match o.gather {
         Gather::Full => image.pass(&clean, |x, y, r| image.square(x, y, r)),
         Gather::Separable => {
@@ -174,8 +174,8 @@ struct Image<'a> {
     height: usize,
     o: &'a BilateralOptions,
     counts: Option<&'a [f64]>,
-    /// Checked before each row: once it trips, the rows left are zeros.
-    cancel: Option<&'a CancelToken>,
+    /// Asked before each row: once true, the rows left are zeros.
+    cancelled: Option<&'a (dyn Fn() -> bool + Sync)>,
 }
 
 impl Image<'_> {
@@ -189,7 +189,7 @@ impl Image<'_> {
         let rows: Vec<Vec<([f64; 3], f64)>> = (0..self.height)
             .into_par_iter()
             .map(|y| {
-                if self.cancel.is_some_and(CancelToken::is_cancelled) {
+                if self.cancelled.is_some_and(|c| c()) {
                     return vec![([0.0; 3], 0.0); self.width];
                 }
                 (0..self.width).map(|x| self.gather(values, x, y, &neighbours)).collect()
@@ -339,8 +339,7 @@ mod tests {
         let (w, h) = (12, 9);
         let guides = flat(w, h, 2.0);
         let values: Vec<[f64; 3]> = (0..w * h).map(|i| [(i % 7) as f64, 1.0, (i % 3) as f64]).collect();
-        let (live, tripped) = (CancelToken::new(), CancelToken::new());
-        tripped.cancel();
+        let (live, tripped) = (|| false, || true);
         for make in [opts, separable] {
             let o = make(Similarity::Lobe { beta: 20.0 });
             let whole = filter_counted(&guides, w, &values, None, &o);
