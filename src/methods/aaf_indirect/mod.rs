@@ -417,9 +417,9 @@ impl IndirectStrategy {
     }
 
     /// Builds the frame of pass `pass`: filters each component and composes. Every per-pixel
-    /// loop runs in parallel: at 640x480 the serial ones cost as much as a filter pass.
-    /// The frame of every sample so far; a cancelled render stops between parts and inside
-    /// the lobe-aware gathers (`BilateralOptions::cancel`) with `RenderError::Cancelled`.
+    /// loop runs in parallel: at 640x480 the serial ones cost as much as a filter pass. A
+    /// cancelled render ends with `RenderError::Cancelled` after a part's filter, and inside
+    /// the lobe-aware gathers (`filter_counted_until`).
     fn compose(&self, scene: &Scene, pass: u32, cancel: &CancelToken) -> Result<Frame, RenderError> {
         let n = self.width * self.height;
         let mut color: Vec<[f64; 3]> = self.sums.par_iter().map(|s| mean(s.direct, s.taken)).collect();
