@@ -81,15 +81,9 @@ impl Strategy for SumOfParts {
     }
 
     fn frame(&mut self, ctx: &PassContext) -> Result<Frame, RenderError> {
-        let mut sum: Option<Frame> = None;
-        for part in &mut self.parts {
-            let frame = part.frame(ctx)?;
-            sum = Some(match sum {
-                None => frame,
-                Some(s) => add_frames(s, frame),
-            });
-        }
-        Ok(sum.unwrap_or_default())
+        let mut frames = self.parts.iter_mut().map(|part| part.frame(ctx));
+        let first = frames.next().transpose()?.unwrap_or_default();
+        frames.try_fold(first, |sum, frame| Ok(add_frames(sum, frame?)))
     }
 }
 
