@@ -22,6 +22,10 @@ pixels its edge crosses, whose error is the camera jitter's coverage of the edge
 denoiser and no filter touches and which would otherwise dominate the error), as the issue's
 figures leave out the light's own pixels.
 FLIP is LDR-FLIP (flip-evaluator) on sRGB-encoded images clamped to [0, 1].
+The reference has noise of its own, which every error against it carries alike: at equal time
+it pulls the ratios of the least noisy entries toward 1. `--subtract-reference-noise` renders a
+second reference with another seed and takes that noise (half the two references' mean squared
+difference) out of every RMSE and relative MSE.
 
 A method `M@base` is wedge's method M run by the build `--wedge-base` names (a before/after
 comparison in one run). A method `M/N` is wedge's method M with `--upsample N` (lobe-aware and normal-aware: indirect
@@ -68,6 +72,8 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 EXTRAPOLATE = 4.0
 # Away from every measured seed (1..--seeds), so that no render shares the reference's samples.
 REFERENCE_SEED = 1_000_003
+# The second reference of --subtract-reference-noise: independent of the first.
+SECOND_REFERENCE_SEED = 2_000_003
 WARMUP_SEED = 999
 
 
@@ -87,6 +93,9 @@ def parse_args(argv=None):
     ap.add_argument("--seeds", type=int, default=3, help="renders per point; the tables show medians")
     ap.add_argument("--reference-spp", type=int, default=4096)
     ap.add_argument("--exclude-above", type=float, default=1.0, help="leave out pixels whose reference exceeds this")
+    ap.add_argument("--subtract-reference-noise", action="store_true",
+                    help="render a second reference with another seed and take the reference's own noise, half their "
+                         "mean squared difference, out of every RMSE and relative MSE (FLIP keeps it)")
     ap.add_argument("--no-mitsuba", action="store_true")
     ap.add_argument("--no-oidn", action="store_true")
     ap.add_argument("--set", action="append", default=[], metavar="GROUP.NAME=VALUE",
@@ -146,7 +155,7 @@ class Metrics:
     """RMSE over RGB, relative MSE and mean LDR-FLIP against the reference, over the pixels
     whose reference stays at or below the threshold in every channel."""
 
-    def __init__(self, ref, exclude_above):
+    def __init__(self, ref, exclude_above, second=None):
         self.ref = ref
         light = ref.max(axis=2) > exclude_above
         near = light.copy()
@@ -156,6 +165,14 @@ class Metrics:
                     light[max(-dy, 0):light.shape[0] + min(-dy, 0), max(-dx, 0):light.shape[1] + min(-dx, 0)]
         self.keep = ~near
         self.ref_ldr = srgb(ref)
+        # The reference's own noise: an image X against it has E|X - ref|^2 = |X - truth|^2 +
+        # Var(ref), and two references with independent seeds differ by 2 Var(ref) in
+        # expectation. Subtracted, the errors are the truth's (0 where that goes negative).
+        self.noise, self.rel_noise = 0.0, 0.0
+        if second is not None:
+            a, b = second[self.keep], ref[self.keep]
+            self.noise = float(np.mean((a - b) ** 2)) / 2
+            self.rel_noise = float(np.mean((a - b) ** 2 / (b ** 2 + 0.01))) / 2
         try:
             import flip_evaluator
             self.flip = flip_evaluator.evaluate
@@ -165,8 +182,8 @@ class Metrics:
     def __call__(self, img):
         img = np.nan_to_num(img, nan=0.0, posinf=0.0, neginf=0.0)
         a, b = img[self.keep], self.ref[self.keep]
-        rmse = float(np.sqrt(np.mean((a - b) ** 2)))
-        rel = float(np.mean((a - b) ** 2 / (b ** 2 + 0.01)))  # mitsuba_compare's rel_mse
+        rmse = float(np.sqrt(max(np.mean((a - b) ** 2) - self.noise, 0.0)))
+        rel = max(float(np.mean((a - b) ** 2 / (b ** 2 + 0.01))) - self.rel_noise, 0.0)  # mitsuba_compare's rel_mse
         flip = math.nan
         if self.flip is not None:
             err = self.flip(self.ref_ldr, srgb(img), "LDR", applyMagma=False, computeMeanError=False)[0]
@@ -187,14 +204,15 @@ def save(directory, name, img):
             mi.util.write_bitmap(os.path.join(directory, f"{name}.{ext}"), img.astype(np.float32), write_async=False)
 
 
-def reference(args, mc, path, name, bounces):
+def reference(args, mc, path, name, bounces, seed=REFERENCE_SEED):
     digest = hashlib.sha1(open(path, "rb").read()).hexdigest()[:8]
-    key = f"race-{name}-{digest}-{args.width}x{args.height}-b{bounces}-{args.reference_spp}spp.exr"
+    suffix = "" if seed == REFERENCE_SEED else f"-seed{seed}"
+    key = f"race-{name}-{digest}-{args.width}x{args.height}-b{bounces}-{args.reference_spp}spp{suffix}.exr"
     cached = os.path.join(ROOT, "bench-results", "cache", key)
     if not os.path.exists(cached):
         print(f"reference: wedge uniform at {args.reference_spp} spp -> {cached}", flush=True)
         with tempfile.TemporaryDirectory() as tmp:
-            _, secs = mc.wedge_reference(path, args.width, args.height, args.reference_spp, bounces, tmp, seed=REFERENCE_SEED)
+            _, secs = mc.wedge_reference(path, args.width, args.height, args.reference_spp, bounces, tmp, seed=seed)
             os.makedirs(os.path.dirname(cached), exist_ok=True)
             shutil.copy(os.path.join(tmp, "final.exr"), cached)
         print(f"reference took {secs:.1f} s", flush=True)
@@ -402,7 +420,13 @@ def main():
     if not os.path.exists(mc.WEDGE):
         raise SystemExit(f"{mc.WEDGE} missing: cargo build --release")
     ref, ref_file = reference(args, mc, path, name, bounces)
-    metrics = Metrics(ref, args.exclude_above)
+    second = reference(args, mc, path, name, bounces, SECOND_REFERENCE_SEED)[0] if args.subtract_reference_noise else None
+    metrics = Metrics(ref, args.exclude_above, second)
+    if second is not None:
+        notes.append(f"The reference's own noise is taken out of every RMSE and relative MSE (MSE {metrics.noise:.3g}, "
+                     f"relative MSE {metrics.rel_noise:.3g}: half the mean squared difference of two references with "
+                     "different seeds); "
+                     "FLIP keeps it.")
     excluded = int((~metrics.keep).sum())
     if metrics.flip is None:
         notes.append("flip-evaluator is not installed: no FLIP (`pip install flip-evaluator`).")
