@@ -86,14 +86,18 @@ impl Tally {
     }
 }
 
-/// Visits every pixel of `pixels` (row-major, `width` wide) as `visit(x, y, pixel, tally)`, in
-/// parallel over bands of `BAND_ROWS` rows, until `stop` asks. Returns the bands' tally (not
-/// complete if the stop came first), or the cancellation.
-pub fn trace_bands<P: Send>(
+/// Visits every pixel of `pixels` (row-major, `width` wide) as `visit(scratch, x, y, pixel,
+/// tally)`, in parallel over bands of `BAND_ROWS` rows, until `stop` asks. Each band makes one
+/// `scratch()` and hands it to every pixel it visits: a visit's working buffers (a packet of
+/// camera samples is kilobytes) are then set up once per band, not once per pixel, which
+/// mattered where a pass sweeps the image many times for a sample or two per pixel. Returns the
+/// bands' tally (not complete if the stop came first), or the cancellation.
+pub fn trace_bands<P: Send, S>(
     pixels: &mut [P],
     width: usize,
     stop: &StopCheck,
-    visit: impl Fn(usize, usize, &mut P, &mut Tally) + Sync,
+    scratch: impl Fn() -> S + Sync,
+    visit: impl Fn(&mut S, usize, usize, &mut P, &mut Tally) + Sync,
 ) -> Result<Tally, RenderError> {
     let w = width.max(1);
     let tallies: Vec<Tally> = pixels
@@ -101,6 +105,7 @@ pub fn trace_bands<P: Send>(
         .enumerate()
         .map(|(band, rows)| {
             let mut t = Tally { complete: true, ..Tally::default() };
+            let mut s = scratch();
             for (r, row) in rows.chunks_mut(w).enumerate() {
                 let y = band * BAND_ROWS + r;
                 for (x, px) in row.iter_mut().enumerate() {
@@ -108,7 +113,7 @@ pub fn trace_bands<P: Send>(
                         t.complete = false;
                         return t;
                     }
-                    visit(x, y, px, &mut t);
+                    visit(&mut s, x, y, px, &mut t);
                 }
             }
             t
@@ -147,7 +152,8 @@ impl Film {
         let w = self.width as usize;
         let cam = &job.view;
         let pairs_ahead = path_pairs(scene, integrand, bounces);
-        trace_bands(&mut self.pixels, w, stop, |x, y, px, t| {
+        let scratch = || CameraSamples { pairs_ahead, ..CameraSamples::default() };
+        trace_bands(&mut self.pixels, w, stop, scratch, |c, x, y, px, t| {
             let index = y * w + x;
             let n = count(index);
             // With pixel centres, every sample of the pass starts at the same hit.
@@ -159,7 +165,6 @@ impl Film {
             // sample's numbers and path are its own, and the sums take the samples in order, as
             // one at a time would.
             let mut done = 0;
-            let mut c = CameraSamples { pairs_ahead, ..CameraSamples::default() };
             while done < n {
                 let m = (n - done).min(MAX_PACKET as u32) as usize;
                 c.set(cam, seed, (x, y), index as u32, px.taken, m, !pixel_centers);

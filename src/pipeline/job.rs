@@ -188,6 +188,17 @@ impl StopCheck {
     pub fn is_cancelled(&self) -> bool {
         self.cancel.is_cancelled()
     }
+
+    /// Whether anything but a cancellation can stop the pass: a deadline (or a test's cut).
+    /// Without one, a pass either completes or is thrown away, so a method that sweeps the
+    /// image several times to keep a cut pass even can trace each pixel's samples in one go.
+    pub fn can_cut(&self) -> bool {
+        #[cfg(test)]
+        if self.checks_left.is_some() {
+            return true;
+        }
+        self.deadline.is_some()
+    }
 }
 
 /// A thread reads the clock at every this many stop checks. The methods check once per pixel

@@ -70,11 +70,22 @@ impl Table<'_> {
 
     /// The last `k < n` with `cdf[k] <= u` (`u` in [0, 1]): the guide's entry for `u`'s
     /// cell, then a short walk, which also mends a cell index that rounding put one off.
-    #[inline]
+    #[cfg(test)]
     fn segment_of(&self, u: f64) -> usize {
+        self.segment_from(u, self.guide_of(u))
+    }
+
+    /// The guide's entry for `u` (where `segment_of` starts its walk).
+    #[inline]
+    fn guide_of(&self, u: f64) -> usize {
+        let n = self.len();
+        self.cells[((u * n as f64) as usize).min(n - 1)].guide as usize
+    }
+
+    /// `segment_of(u)` from the guide's entry `k` for `u`.
+    #[inline]
+    fn segment_from(&self, u: f64, mut k: usize) -> usize {
         let (n, c) = (self.len(), self.cells);
-        let j = ((u * n as f64) as usize).min(n - 1);
-        let mut k = c[j].guide as usize;
         while k > 0 && c[k].cdf > u {
             k -= 1;
         }
@@ -95,11 +106,17 @@ impl Table<'_> {
 
     #[inline]
     fn sample(&self, u: f32) -> (f32, f32, usize) {
-        let (n, c) = (self.len(), self.cells);
         let u = (u as f64).clamp(0.0, 1.0);
+        self.sample_from(u, self.guide_of(u))
+    }
+
+    /// `sample` for `u` (in [0, 1], as f64) from the guide's entry `guide` for it.
+    #[inline]
+    fn sample_from(&self, u: f64, guide: usize) -> (f32, f32, usize) {
+        let (n, c) = (self.len(), self.cells);
         let mass = |k: usize| c[k + 1].cdf - c[k].cdf;
         // The last k with cdf[k] <= u, among segments of positive mass.
-        let mut k = self.segment_of(u);
+        let mut k = self.segment_from(u, guide);
         while k > 0 && mass(k) <= 0.0 {
             k -= 1;
         }
@@ -206,14 +223,57 @@ impl Distribution2D {
         ([x, y], pdf_x * pdf_y)
     }
 
+    /// `sample` of each of `us`, the same numbers, with the points' reads of the rows' cells
+    /// issued together: on a large map each is a cache miss, and one point's wait then
+    /// overlaps the others' instead of following it.
+    #[inline]
+    pub fn sample_many<const N: usize>(&self, us: &[[f32; 2]; N]) -> [([f32; 2], f32); N] {
+        let ys = us.map(|u| self.marginal.sample(u[1]));
+        let xs = us.map(|u| (u[0] as f64).clamp(0.0, 1.0));
+        let guides: [usize; N] = std::array::from_fn(|i| self.row(ys[i].2).guide_of(xs[i]));
+        for i in 0..N {
+            prefetch(&self.row(ys[i].2).cells[guides[i]]);
+        }
+        std::array::from_fn(|i| {
+            let (y, pdf_y, row) = ys[i];
+            let (x, pdf_x, _) = self.row(row).sample_from(xs[i], guides[i]);
+            ([x, y], pdf_x * pdf_y)
+        })
+    }
+
+    /// The row and column of the cell holding point `p`.
+    #[inline]
+    fn cell_of(&self, p: [f32; 2]) -> (usize, usize) {
+        let (h, w) = (self.row_integrals.len(), self.width);
+        (((p[1] * h as f32) as usize).min(h - 1), ((p[0] * w as f32) as usize).min(w - 1))
+    }
+
     /// Density at point (x, y) in [0, 1)^2.
     #[inline]
     pub fn pdf(&self, p: [f32; 2]) -> f32 {
-        let (h, w) = (self.row_integrals.len(), self.width);
-        let row = ((p[1] * h as f32) as usize).min(h - 1);
-        let col = ((p[0] * w as f32) as usize).min(w - 1);
+        let (row, col) = self.cell_of(p);
         self.marginal.pdf_of(row) * self.row(row).pdf_of(col)
     }
+
+    /// Asks for the memory `pdf(p)` reads, for a `pdf` call soon after.
+    #[inline]
+    pub fn prefetch_pdf(&self, p: [f32; 2]) {
+        let (row, col) = self.cell_of(p);
+        prefetch(&self.row(row).cells[col]);
+    }
+}
+
+/// Asks the CPU to bring `x`'s cache line in (a hint: no effect on any value).
+#[inline(always)]
+pub(crate) fn prefetch<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch reads nothing architecturally and cannot fault; `x` is a valid reference.
+    #[allow(unused_unsafe)]
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(x as *const T as *const i8)
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
 }
 
 #[cfg(test)]

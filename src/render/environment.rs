@@ -8,7 +8,7 @@
 //! the same scene the same way in both): +Y is the zenith (the top row, v = 0), u runs from
 //! the -Z direction (u = 0) towards +X (u = 1/4), and the first and last rows lie on the poles
 //! (`LatLongMap`). A light's `to_map` rotation takes world directions into that frame.
-use super::distribution::Distribution2D;
+use super::distribution::{prefetch, Distribution2D};
 use glam::{Mat3, Vec3};
 use std::f32::consts::PI;
 use std::sync::Arc;
@@ -121,6 +121,17 @@ impl LatLongMap {
         (at(r0, c0) * (1.0 - fx) + at(r0, c1) * fx) * (1.0 - fy) + (at(r1, c0) * (1.0 - fx) + at(r1, c1) * fx) * fy
     }
 
+    /// Asks for the texels `lookup(uv)` reads (the start of each of its two rows' pairs), for
+    /// a lookup soon after.
+    #[inline]
+    pub fn prefetch(&self, uv: [f32; 2]) {
+        let x = ((uv[0] * self.width as f32 - 0.5).max(0.0) as usize).min(self.width - 1);
+        let r0 = ((uv[1] * (self.height - 1) as f32).max(0.0) as usize).min(self.height - 1);
+        let r1 = (r0 + 1).min(self.height - 1);
+        prefetch(&self.texels[r0 * self.width + x]);
+        prefetch(&self.texels[r1 * self.width + x]);
+    }
+
     /// The mean radiance over the sphere (each texel weighted by its solid angle).
     pub fn mean_radiance(&self) -> Vec3 {
         let mut sum = Vec3::ZERO;
@@ -204,16 +215,60 @@ impl EnvironmentLight {
                     return None;
                 }
                 let (uv, pdf_uv) = m.distribution.sample(u);
-                let (local, sin_theta) = uv_to_direction(uv);
-                if !(sin_theta > 0.0 && pdf_uv > 0.0) {
-                    return None;
-                }
-                let pdf = pdf_uv / (2.0 * PI * PI * sin_theta);
-                let wi = self.to_map.transpose() * local;
-                let radiance = m.lookup(uv) * self.scale;
-                pdf.is_finite().then_some(EnvironmentSample { wi, radiance, pdf })
+                self.drawn_from(m, uv, pdf_uv)
             }
         }
+    }
+
+    /// The sample of map `m` (this light's) at the point `uv` its distribution drew with
+    /// density `pdf_uv` over (u, v).
+    #[inline]
+    fn drawn_from(&self, m: &LatLongMap, uv: [f32; 2], pdf_uv: f32) -> Option<EnvironmentSample> {
+        let (local, sin_theta) = uv_to_direction(uv);
+        if !(sin_theta > 0.0 && pdf_uv > 0.0) {
+            return None;
+        }
+        let pdf = pdf_uv / (2.0 * PI * PI * sin_theta);
+        let wi = self.to_map.transpose() * local;
+        let radiance = m.lookup(uv) * self.scale;
+        pdf.is_finite().then_some(EnvironmentSample { wi, radiance, pdf })
+    }
+
+    /// `sample` of each of `us`: the same numbers, with the lanes' memory reads (the
+    /// distribution's rows, then the texels) issued together, so that on a large map their
+    /// cache misses overlap.
+    #[inline]
+    pub fn sample_many<const N: usize>(&self, us: &[[f32; 2]; N]) -> [Option<EnvironmentSample>; N] {
+        let EnvironmentRadiance::Map(m) = &self.radiance else {
+            return us.map(|u| self.sample(u));
+        };
+        if !(m.distribution.integral() > 0.0) || self.scale == 0.0 {
+            return [None; N];
+        }
+        let drawn = m.distribution.sample_many(us);
+        for (uv, _) in &drawn {
+            m.prefetch(*uv);
+        }
+        drawn.map(|(uv, pdf_uv)| self.drawn_from(m, uv, pdf_uv))
+    }
+
+    /// `radiance_and_pdf` of each direction of `ws` (None: nothing asked, (0, 0) given): the
+    /// same numbers, the lanes' texels and distribution cells asked for together first.
+    #[inline]
+    pub fn radiance_and_pdf_many<const N: usize>(&self, ws: &[Option<Vec3>; N]) -> [(Vec3, f32); N] {
+        let EnvironmentRadiance::Map(m) = &self.radiance else {
+            return ws.map(|w| w.map_or((Vec3::ZERO, 0.0), |w| self.radiance_and_pdf(w)));
+        };
+        let at = ws.map(|w| {
+            w.map(|w| {
+                let local = self.to_map * w;
+                let uv = direction_to_uv(local);
+                m.prefetch(uv);
+                m.distribution.prefetch_pdf(uv);
+                (local, uv)
+            })
+        });
+        at.map(|a| a.map_or((Vec3::ZERO, 0.0), |(local, uv)| self.map_radiance_and_pdf(m, local, uv)))
     }
 
     /// `(radiance(w), pdf(w))`, the direction turned into the map's coordinates once: the
@@ -224,18 +279,24 @@ impl EnvironmentLight {
             EnvironmentRadiance::Constant(_) => (self.radiance(w), self.pdf(w)),
             EnvironmentRadiance::Map(m) => {
                 let local = self.to_map * w;
-                let uv = direction_to_uv(local);
-                let radiance = m.lookup(uv) * self.scale;
-                if !(m.distribution.integral() > 0.0) || self.scale == 0.0 {
-                    return (radiance, 0.0);
-                }
-                let sin_theta = (1.0 - local.y * local.y).max(0.0).sqrt();
-                if sin_theta <= 0.0 {
-                    return (radiance, 0.0);
-                }
-                (radiance, m.distribution.pdf(uv) / (2.0 * PI * PI * sin_theta))
+                self.map_radiance_and_pdf(m, local, direction_to_uv(local))
             }
         }
+    }
+
+    /// `radiance_and_pdf` on map `m` (this light's) of the map-frame direction `local`, whose
+    /// (u, v) is `uv`.
+    #[inline]
+    fn map_radiance_and_pdf(&self, m: &LatLongMap, local: Vec3, uv: [f32; 2]) -> (Vec3, f32) {
+        let radiance = m.lookup(uv) * self.scale;
+        if !(m.distribution.integral() > 0.0) || self.scale == 0.0 {
+            return (radiance, 0.0);
+        }
+        let sin_theta = (1.0 - local.y * local.y).max(0.0).sqrt();
+        if sin_theta <= 0.0 {
+            return (radiance, 0.0);
+        }
+        (radiance, m.distribution.pdf(uv) / (2.0 * PI * PI * sin_theta))
     }
 
     /// The density over solid angle with which `sample` draws world direction `w`.

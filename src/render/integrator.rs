@@ -5,10 +5,10 @@
 //! by multiple importance sampling, `environment_direct`), and so is the glossy part of a rect
 //! light's in scenes with glossy materials (`rect_direct`, `mis`): both draw their own
 //! BRDF-sampled direction. Bounce rays that escape add nothing either, for the same reason.
-use super::environment::EnvironmentLight;
+use super::environment::{EnvironmentLight, EnvironmentSample};
 use super::frame_basis::{cosine_hemisphere, to_world};
 use super::light::{Light, LightSample, RectLight};
-use super::material::{Brdf, Material};
+use super::material::{Brdf, BrdfSample, Material};
 use super::mis::{light_terms, power_heuristic, shadowed_lobe_term};
 use super::sampler::PixelSampler;
 use super::scene::{Scene, Surface};
@@ -214,28 +214,66 @@ pub fn environment_terms(
     u_lobe: f32,
     u_brdf: [f32; 2],
 ) -> [Option<(Vec3, Vec3)>; 2] {
-    let mut terms = [None, None];
-    if let Some(es) = env.sample(u_light) {
-        let cos = s.ns.dot(es.wi);
-        if cos > 0.0 && s.ng.dot(es.wi) > 0.0 {
-            let (f, brdf_pdf) = brdf.eval_and_pdf(wo, es.wi, s.ns);
-            if f != Vec3::ZERO && es.radiance != Vec3::ZERO {
-                let w = power_heuristic(es.pdf, brdf_pdf);
-                terms[0] = Some((f * es.radiance * (cos * w / es.pdf), es.wi));
-            }
-        }
+    let light = light_term(s, wo, brdf, env.sample(u_light));
+    let drawn = brdf_direction(s, wo, brdf, u_lobe, u_brdf);
+    [light, drawn.and_then(|(b, cos)| brdf_term(&b, cos, env.radiance_and_pdf(b.wi)))]
+}
+
+/// `environment_terms` of several lookups at one point: the same terms, the environment's
+/// memory reads of all of them issued together (`EnvironmentLight::sample_many`,
+/// `radiance_and_pdf_many`), since on a large map each is a cache miss.
+#[allow(clippy::too_many_arguments)]
+pub fn environment_terms_many<const N: usize>(
+    s: &Surface,
+    wo: Vec3,
+    brdf: &Brdf,
+    env: &EnvironmentLight,
+    u_light: &[[f32; 2]; N],
+    u_lobe: &[f32; N],
+    u_brdf: &[[f32; 2]; N],
+) -> [[Option<(Vec3, Vec3)>; 2]; N] {
+    let lights = env.sample_many(u_light);
+    let drawn: [_; N] = std::array::from_fn(|i| brdf_direction(s, wo, brdf, u_lobe[i], u_brdf[i]));
+    let lit = env.radiance_and_pdf_many(&drawn.map(|d| d.map(|(b, _)| b.wi)));
+    std::array::from_fn(|i| {
+        let light = light_term(s, wo, brdf, lights[i]);
+        [light, drawn[i].and_then(|(b, cos)| brdf_term(&b, cos, lit[i]))]
+    })
+}
+
+/// The light-sampled term of `environment_terms`, from the light's sample (None: nothing drawn).
+#[inline]
+fn light_term(s: &Surface, wo: Vec3, brdf: &Brdf, sample: Option<EnvironmentSample>) -> Option<(Vec3, Vec3)> {
+    let es = sample?;
+    let cos = s.ns.dot(es.wi);
+    if !(cos > 0.0 && s.ng.dot(es.wi) > 0.0) {
+        return None;
     }
-    if let Some(b) = brdf.sample(wo, s.ns, u_lobe, u_brdf) {
-        let cos = s.ns.dot(b.wi);
-        if cos > 0.0 && s.ng.dot(b.wi) > 0.0 && b.f != Vec3::ZERO {
-            let (radiance, env_pdf) = env.radiance_and_pdf(b.wi);
-            if radiance != Vec3::ZERO {
-                let w = power_heuristic(b.pdf, env_pdf);
-                terms[1] = Some((b.f * radiance * (cos * w / b.pdf), b.wi));
-            }
-        }
+    let (f, brdf_pdf) = brdf.eval_and_pdf(wo, es.wi, s.ns);
+    if f == Vec3::ZERO || es.radiance == Vec3::ZERO {
+        return None;
     }
-    terms
+    let w = power_heuristic(es.pdf, brdf_pdf);
+    Some((f * es.radiance * (cos * w / es.pdf), es.wi))
+}
+
+/// The BRDF's direction for the BRDF-sampled term of `environment_terms` and its cosine; None
+/// where the term is zero whatever the light (below either horizon, or f = 0).
+#[inline]
+fn brdf_direction(s: &Surface, wo: Vec3, brdf: &Brdf, u_lobe: f32, u_brdf: [f32; 2]) -> Option<(BrdfSample, f32)> {
+    let b = brdf.sample(wo, s.ns, u_lobe, u_brdf)?;
+    let cos = s.ns.dot(b.wi);
+    (cos > 0.0 && s.ng.dot(b.wi) > 0.0 && b.f != Vec3::ZERO).then_some((b, cos))
+}
+
+/// The BRDF-sampled term from its direction, cosine and the light's `(radiance, pdf)` there.
+#[inline]
+fn brdf_term(b: &BrdfSample, cos: f32, (radiance, env_pdf): (Vec3, f32)) -> Option<(Vec3, Vec3)> {
+    if radiance == Vec3::ZERO {
+        return None;
+    }
+    let w = power_heuristic(b.pdf, env_pdf);
+    Some((b.f * radiance * (cos * w / b.pdf), b.wi))
 }
 
 /// The light of one light sample `ls` reflected at `s` towards `wo` (f cos weight, 0 where

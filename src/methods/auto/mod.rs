@@ -229,7 +229,8 @@ impl AutoStrategy {
     /// adapt: then first every pixel up to the pass's uniform share and only then the adaptive
     /// extras, so that a pass the deadline cuts has raised the whole image before its
     /// penumbrae. The even part runs in `ROUNDS` sweeps over the image (`rounds`), the extras
-    /// in `EXTRA_ROUNDS`.
+    /// in `EXTRA_ROUNDS`. Without a deadline to cut the pass, one sweep does it all: the same
+    /// samples, in packets of the pixel's count rather than of a sample or two.
     fn trace(&mut self, ctx: &PassContext, before: u32, target: u32) -> Result<bool, RenderError> {
         let nl = self.lights.len();
         let Some(counts) =
@@ -237,6 +238,10 @@ impl AutoStrategy {
         else {
             return self.trace_rounds(ctx, before, target, &|_| target);
         };
+        if !ctx.stop.can_cut() {
+            // Nothing can cut the pass: the sweeps would trace the same samples, a few at a time.
+            return self.trace_to(ctx, &|p| counts[p]);
+        }
         let uniform = self.opts.proportional().uniform_share(target);
         if !self.trace_rounds(ctx, before, uniform, &|p| counts[p])? {
             return Ok(false);
@@ -311,6 +316,9 @@ impl AutoStrategy {
         target: u32,
         count: &(dyn Fn(usize) -> u32 + Sync),
     ) -> Result<bool, RenderError> {
+        if !ctx.stop.can_cut() {
+            return self.trace_to(ctx, &|p| count(p).min(target));
+        }
         for round in rounds(before, target) {
             if !self.trace_to(ctx, &|p| count(p).min(round))? {
                 return Ok(false);

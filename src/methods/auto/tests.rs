@@ -430,6 +430,25 @@ fn a_pass_cut_in_its_adaptive_extras_leaves_like_fractions() {
     }
 }
 
+/// Without a deadline nothing but a cancellation can stop a pass, so the passes trace each
+/// pixel's samples in one sweep instead of rounds: the same samples, so every frame is the
+/// one a render under a deadline it never meets gives, bit for bit (its rounds ran), with a
+/// bounce and with direct light.
+#[test]
+fn one_sweep_without_a_deadline_gives_the_frames_of_the_rounds() {
+    for bounces in [0, 1] {
+        let j = job(builtin("cornell", 24, 18), Method::Auto, 4, 3, bounces);
+        let mut far = j.clone();
+        far.halt.time_budget = Some(std::time::Duration::from_secs(3600));
+        let (one, rounds) = (all_frames(&j), all_frames(&far));
+        assert_eq!(one.len(), 4);
+        assert!(one.last().unwrap().spp.iter().any(|&n| n != 16.0), "the last pass adapts its counts");
+        for (a, b) in one.iter().zip(&rounds) {
+            assert_eq!((&a.color, &a.spp), (&b.color, &b.spp), "{bounces} bounces, pass {}", a.stats.pass);
+        }
+    }
+}
+
 /// A render halted at a mean count stops there with adaptive counts too: each pass's counts
 /// sum to its target exactly, so every frame's mean is at least its pass's target and the
 /// render halts in the pass that reaches the cap (a mean a sample short of it would repeat the

@@ -213,6 +213,22 @@ fn a_pass_cut_in_its_extras_leaves_each_pixel_a_like_fraction_of_its_way() {
     assert!(moved > 0 && moved < pixels as u32, "the cut fell inside the second sweep: {moved}");
 }
 
+/// Without a deadline the passes trace each pixel's samples in one sweep (nothing but a
+/// cancellation can stop them): the same samples and lookups, so the frames are those of a
+/// render whose rounds ran under a deadline it never met, bit for bit.
+#[test]
+fn one_sweep_without_a_deadline_gives_the_frames_of_the_rounds() {
+    let j = job(builtin("sky-spheres", 32, 24), Method::Bandwidth, 5, 6, 1);
+    let mut far = j.clone();
+    far.halt.time_budget = Some(std::time::Duration::from_secs(3600));
+    let (one, rounds) = (all_frames(&j), all_frames(&far));
+    assert_eq!(one.len(), 5);
+    assert!(one.last().unwrap().spp.iter().any(|&n| n != 16.0), "the last pass adapts its counts");
+    for (a, b) in one.iter().zip(&rounds) {
+        assert_eq!((&a.color, &a.spp), (&b.color, &b.spp), "pass {}", a.stats.pass);
+    }
+}
+
 /// Eq. 4's light directions shared by a tile of pixels (`light_tile`, the default 8) predict
 /// what each pixel's own do: the directions come from the same distribution, so the levels
 /// agree within one at nearly every pixel and the shaded share of the image is alike. With
@@ -236,4 +252,41 @@ fn light_directions_shared_by_a_tile_predict_the_per_pixel_levels() {
     assert!((a / b - 1.0).abs() < 0.05, "shaded share {a} tiled, {b} per pixel");
     // And the tiles do change the draws: the two analyses are not the same numbers.
     assert_ne!(tiled.bandwidth, own.bandwidth);
+}
+
+/// `shade` takes its lookups a batch at a time; its estimate is, bit for bit, the mean of the
+/// terms of one lookup at a time (`environment_terms` with each lookup's own numbers), for
+/// counts that fill whole batches and counts that leave a part of one, on the glossy spheres
+/// and the diffuse floor.
+#[test]
+fn batched_lookups_give_the_one_at_a_time_estimate() {
+    use super::sample::{shade, LookupStream, MAX_LOOKUPS};
+    use crate::render::integrator::environment_terms;
+    use crate::render::sampler::PixelSampler;
+    use glam::Vec3;
+    let s = builtin("sky-spheres", 32, 24);
+    let j = job(s.clone(), Method::Bandwidth, 1, 0, 0);
+    let env = s.environment().expect("the sky");
+    let mut shaded = 0;
+    for (x, y) in [(16.5, 12.5), (8.5, 14.5), (24.5, 10.5), (16.5, 22.5), (3.5, 20.5)] {
+        let dir = j.view.direction(x, y);
+        let Some(hit) = s.intersect(j.view.position, dir, 0.0) else { continue };
+        let brdf = s.materials[hit.material as usize].brdf(hit.uv);
+        for lookups in 1..=9 {
+            let stream = LookupStream { seed: 42, pixel: 7, index: 3 };
+            let mut expected = Vec3::ZERO;
+            for k in 0..lookups {
+                let index = stream.index.wrapping_mul(MAX_LOOKUPS).wrapping_add(k);
+                let mut sampler = PixelSampler::new(stream.seed, stream.pixel, index);
+                let (ul, ub, ud) = (sampler.next_2d(), sampler.next_1d(), sampler.next_2d());
+                for (value, _) in environment_terms(&hit, -dir, &brdf, env, ul, ub, ud).into_iter().flatten() {
+                    expected += value;
+                }
+            }
+            let got = shade(&s, env, &hit, -dir, lookups, stream);
+            assert_eq!(got, expected / lookups as f32, "pixel ({x}, {y}), {lookups} lookups");
+            shaded += (got != Vec3::ZERO) as u32;
+        }
+    }
+    assert!(shaded >= 27, "too few points shaded: {shaded}");
 }

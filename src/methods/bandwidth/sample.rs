@@ -10,7 +10,8 @@
 //! the shadows, the bounces and the other lights are sampled per pixel at full resolution, as
 //! the paper leaves them.
 use crate::render::environment::EnvironmentLight;
-use crate::render::integrator::{environment_terms, radiance_from, DirectLights};
+use crate::render::integrator::{environment_terms, environment_terms_many, radiance_from, DirectLights};
+use crate::render::material::Brdf;
 use crate::render::sampler::PixelSampler;
 use crate::render::scene::{Scene, Surface};
 use glam::Vec3;
@@ -72,7 +73,9 @@ pub struct LookupStream {
 
 /// `S` at `s` towards `wo` from `lookups` pairs of a light- and a BRDF-sampled direction (no
 /// rays: the light is unshadowed), their numbers from `stream`: an unbiased estimate whose
-/// variance falls as 1 / lookups.
+/// variance falls as 1 / lookups. The lookups go four at a time (`environment_terms_many`), so
+/// that their reads of a large map overlap; the terms and their sum are those of one lookup at
+/// a time.
 pub fn shade(scene: &Scene, env: &EnvironmentLight, s: &Surface, wo: Vec3, lookups: u32, stream: LookupStream) -> Vec3 {
     let brdf = scene.materials[s.material as usize].brdf(s.uv);
     if brdf.is_black() {
@@ -80,13 +83,41 @@ pub fn shade(scene: &Scene, env: &EnvironmentLight, s: &Surface, wo: Vec3, looku
     }
     let lookups = lookups.clamp(1, MAX_LOOKUPS);
     let mut sum = Vec3::ZERO;
-    for j in 0..lookups {
-        let index = stream.index.wrapping_mul(MAX_LOOKUPS).wrapping_add(j);
-        let mut sampler = PixelSampler::new(stream.seed, stream.pixel, index);
-        let (u_light, u_lobe, u_brdf) = (sampler.next_2d(), sampler.next_1d(), sampler.next_2d());
-        for (value, _) in environment_terms(s, wo, &brdf, env, u_light, u_lobe, u_brdf).into_iter().flatten() {
-            sum += value;
+    let mut j = 0;
+    while j < lookups {
+        let n = (lookups - j).min(4);
+        match n {
+            4 => add_lookups::<4>(&mut sum, s, wo, &brdf, env, stream, j),
+            3 => add_lookups::<3>(&mut sum, s, wo, &brdf, env, stream, j),
+            2 => add_lookups::<2>(&mut sum, s, wo, &brdf, env, stream, j),
+            _ => add_lookups::<1>(&mut sum, s, wo, &brdf, env, stream, j),
         }
+        j += n;
     }
     sum / lookups as f32
+}
+
+/// Adds the terms of lookups `first .. first + N` of `stream` to `sum`, one at a time in order
+/// (the same sum as one lookup at a time gives).
+#[inline]
+fn add_lookups<const N: usize>(
+    sum: &mut Vec3,
+    s: &Surface,
+    wo: Vec3,
+    brdf: &Brdf,
+    env: &EnvironmentLight,
+    stream: LookupStream,
+    first: u32,
+) {
+    let (mut u_light, mut u_lobe, mut u_brdf) = ([[0.0; 2]; N], [0.0; N], [[0.0; 2]; N]);
+    for i in 0..N {
+        let index = stream.index.wrapping_mul(MAX_LOOKUPS).wrapping_add(first + i as u32);
+        let mut sampler = PixelSampler::new(stream.seed, stream.pixel, index);
+        (u_light[i], u_lobe[i], u_brdf[i]) = (sampler.next_2d(), sampler.next_1d(), sampler.next_2d());
+    }
+    for terms in environment_terms_many(s, wo, brdf, env, &u_light, &u_lobe, &u_brdf) {
+        for (value, _) in terms.into_iter().flatten() {
+            *sum += value;
+        }
+    }
 }

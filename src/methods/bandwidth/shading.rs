@@ -211,13 +211,13 @@ impl BandwidthShading {
         let env = scene.environment();
         let gbuffer = ctx.gbuffer.map(|g| g.as_ref());
         let pairs_ahead = path_pairs(scene, job.integrand, job.bounces);
-        trace_bands(&mut self.pixels, w, ctx.stop, |x, y, px, t| {
+        let scratch = || CameraSamples { pairs_ahead, ..CameraSamples::default() };
+        trace_bands(&mut self.pixels, w, ctx.stop, scratch, |camera, x, y, px, t| {
             let i = y * w + x;
             let centre_object = gbuffer.map_or(NONE, |g| g.pixels[i].object);
             // The pixel's camera rays a packet at a time (`CameraSamples`), each sample then
             // traced on in order.
             let target = upto(i);
-            let mut camera = CameraSamples { pairs_ahead, ..CameraSamples::default() };
             while px.taken < target {
                 let m = ((target - px.taken) as usize).min(MAX_PACKET);
                 camera.set(cam, seed, (x, y), i as u32, px.taken, m, !job.pixel_centers);
@@ -328,7 +328,8 @@ impl BandwidthShading {
 
     /// Traces the pass: every pixel up to the pass's uniform share in sweeps over the image,
     /// then the adaptive extras in `EXTRA_ROUNDS` more, so that a pass the deadline cuts leaves the
-    /// counts even; without adaptive counts, every pixel its plan's samples in one sweep.
+    /// counts even; without adaptive counts, or without a deadline to cut the pass, every pixel
+    /// its samples in one sweep (the sweeps' packets of a sample or two cost more per sample).
     fn trace_pass(
         &mut self,
         ctx: &PassContext,
@@ -340,6 +341,10 @@ impl BandwidthShading {
             let ends: Vec<u32> = self.pixels.iter().zip(plan).map(|(p, q)| p.taken.saturating_add(q.samples)).collect();
             return self.trace(ctx, plan, &|p| ends[p]);
         };
+        if !ctx.stop.can_cut() {
+            // Nothing can cut the pass: the sweeps would trace the same samples, a few at a time.
+            return self.trace(ctx, plan, &|p| counts[p]);
+        }
         let before = self.base_spp.min(u32::MAX as u64) as u32;
         let uniform = ctx.job.bandwidth.proportional().uniform_share(target);
         let mut total = Tally { complete: true, ..Tally::default() };

@@ -211,3 +211,35 @@ fn the_mean_radiance_weights_texels_by_solid_angle() {
     let map = LatLongMap::new(3, 2, vec![Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ONE, Vec3::ONE, Vec3::ONE]);
     assert!((map.mean_radiance() - Vec3::splat(0.5)).length() < 1e-6);
 }
+
+/// The batched calls (`sample_many`, `radiance_and_pdf_many`) give each lane exactly what one
+/// call gives, on maps (smooth, a single bright texel, black), a turned map and a constant,
+/// with lanes that ask for nothing among them.
+#[test]
+fn batched_calls_give_each_lane_the_single_calls_numbers() {
+    use crate::render::test_rng::Rng;
+    let lights = [
+        light(smooth_map(64, 32), Vec3::Y, 0.0),
+        light(one_texel_map(32, 16, (20, 5)), Vec3::new(0.3, 1.0, 0.2), 70.0),
+        light(LatLongMap::new(8, 4, vec![Vec3::ZERO; 32]), Vec3::Y, 0.0),
+        EnvironmentLight::new(EnvironmentRadiance::Constant(Vec3::new(0.5, 1.0, 2.0)), 1.5, Vec3::Y, 0.0),
+    ];
+    let mut rng = Rng(11);
+    for l in &lights {
+        for _ in 0..200 {
+            let us: [[f32; 2]; 5] = std::array::from_fn(|_| [rng.f(), rng.f()]);
+            let many = l.sample_many(&us);
+            for (u, m) in us.iter().zip(&many) {
+                let one = l.sample(*u);
+                assert_eq!(one.map(|s| (s.wi, s.radiance, s.pdf)), m.map(|s| (s.wi, s.radiance, s.pdf)));
+            }
+            let ws: [Option<Vec3>; 3] = std::array::from_fn(|i| {
+                (i != 1).then(|| Vec3::new(rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5).normalize())
+            });
+            let many = l.radiance_and_pdf_many(&ws);
+            for (w, m) in ws.iter().zip(many) {
+                assert_eq!(w.map_or((Vec3::ZERO, 0.0), |w| l.radiance_and_pdf(w)), m);
+            }
+        }
+    }
+}
