@@ -162,9 +162,11 @@ impl BandwidthShading {
             let (bw, _, ref v) = maxes[level];
             v[(y as usize >> level) * bw + (x as usize >> level)]
         };
-        let variances: Vec<f64> = (0..w * h).map(|i| if shaded[i] { block_variance(i) } else { 0.0 }).collect();
+        let variances: Vec<f64> =
+            (0..w * h).into_par_iter().map(|i| if shaded[i] { block_variance(i) } else { 0.0 }).collect();
         let influence = if opts.lookups_by_influence {
-            let has_value: Vec<bool> = shaded.iter().zip(&self.pixels).map(|(&s, px)| s || px.n_shaded > 0).collect();
+            let has_value: Vec<bool> =
+                shaded.par_iter().zip(&self.pixels).map(|(&s, px)| s || px.n_shaded > 0).collect();
             up.influence(&has_value)
         } else {
             vec![1.0; w * h]
@@ -173,6 +175,7 @@ impl BandwidthShading {
         let mean = variances.iter().filter(|v| v.is_finite()).sum::<f64>() / count;
         let max_lookups = opts.max_lookups.clamp(1, MAX_LOOKUPS);
         (0..w * h)
+            .into_par_iter()
             .map(|i| {
                 let level = analysis.level[i];
                 let factor = if level < 0 { 1u32 << (2 * (-level).min(2)) } else { 1 };
@@ -283,7 +286,7 @@ impl BandwidthShading {
             (Some(up), Some(g)) => {
                 let own: Vec<Option<[f64; 3]>> = self
                     .pixels
-                    .iter()
+                    .par_iter()
                     .zip(&g.pixels)
                     .map(|(px, p)| {
                         if !p.is_valid() || p.emitter {
@@ -322,7 +325,7 @@ impl BandwidthShading {
             })
             .collect();
         let sigma = pooled_sigmas(self.width as usize, &own, 1);
-        let taken: Vec<u32> = self.pixels.iter().map(|p| p.taken).collect();
+        let taken: Vec<u32> = self.pixels.par_iter().map(|p| p.taken).collect();
         opts.proportional().counts(&sigma, target, &taken)
     }
 
@@ -338,7 +341,8 @@ impl BandwidthShading {
         target: u32,
     ) -> Result<Tally, RenderError> {
         let Some(counts) = counts else {
-            let ends: Vec<u32> = self.pixels.iter().zip(plan).map(|(p, q)| p.taken.saturating_add(q.samples)).collect();
+            let ends: Vec<u32> =
+                self.pixels.par_iter().zip(plan).map(|(p, q)| p.taken.saturating_add(q.samples)).collect();
             return self.trace(ctx, plan, &|p| ends[p]);
         };
         if !ctx.stop.can_cut() {
@@ -413,14 +417,15 @@ impl Strategy for BandwidthShading {
         self.levels = levels;
         self.method_seconds += start.elapsed().as_secs_f64();
         let n = self.pixels.len().max(1) as f64;
-        let mean_spp = self.pixels.iter().map(|p| p.taken as f64).sum::<f64>() / n;
+        let mean_spp = self.pixels.par_iter().map(|p| p.taken as f64).sum::<f64>() / n;
         Ok(Sampled { complete: tally.complete, mean_spp, rays_traced: self.rays, dropped_samples: self.dropped })
     }
 
     fn frame(&mut self, ctx: &PassContext) -> Result<Frame, RenderError> {
         let start = Instant::now();
         let visibility = ctx.job.bandwidth.visibility;
-        let color = self.pixels.iter().zip(&self.s_hat).map(|(px, s)| px.estimate(s.as_ref(), visibility)).collect();
+        let color =
+            self.pixels.par_iter().zip(&self.s_hat).map(|(px, s)| px.estimate(s.as_ref(), visibility)).collect();
         let finest = finest_level(&ctx.job.bandwidth);
         let shading = self.analysis.as_ref().zip(self.levels.as_ref()).map(|(a, levels)| ShadingMaps {
             bandwidth: a.bandwidth.clone(),
@@ -435,13 +440,13 @@ impl Strategy for BandwidthShading {
             height: self.height,
             color,
             unfiltered: None,
-            spp: self.pixels.iter().map(|p| (p.n_whole + p.n_same) as f32).collect(),
+            spp: self.pixels.par_iter().map(|p| (p.n_whole + p.n_same) as f32).collect(),
             filter_width: None,
             components: Vec::new(),
             aovs: None,
             shading,
             stats: FrameStats {
-                mean_spp: self.pixels.iter().map(|p| p.taken as f64).sum::<f64>() / n,
+                mean_spp: self.pixels.par_iter().map(|p| p.taken as f64).sum::<f64>() / n,
                 rays_traced: self.rays,
                 dropped_samples: self.dropped,
                 method_seconds: self.method_seconds,
