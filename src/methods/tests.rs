@@ -53,3 +53,18 @@ pub fn edited_scene(text: &str, w: u32, h: u32, edit: impl Fn(&mut serde_json::V
     let s = crate::scene::json::parse_scene(&json.to_string(), "edited scene").unwrap();
     Arc::new(crate::scene::compile(&s, &crate::scene::SceneLimits::default(), None).unwrap())
 }
+
+/// Asserts that `j` (no deadline: each pass in one sweep, `StopCheck::can_cut`) gives, bit for
+/// bit, the frames of the same render under a deadline it never meets (each pass in rounds),
+/// and that its last pass adapted its counts (a mean of `even_spp` not spread evenly), so
+/// that the rounds had extras to sweep.
+pub fn assert_one_sweep_equals_the_rounds(j: &RenderJob, passes: usize, even_spp: f32) {
+    let mut far = j.clone();
+    far.halt.time_budget = Some(std::time::Duration::from_secs(3600));
+    let (one, rounds) = (all_frames(j), all_frames(&far));
+    assert_eq!((one.len(), rounds.len()), (passes, passes));
+    assert!(one.last().unwrap().spp.iter().any(|&n| n != even_spp), "the last pass adapts its counts");
+    for (a, b) in one.iter().zip(&rounds) {
+        assert_eq!((&a.color, &a.spp), (&b.color, &b.spp), "pass {}", a.stats.pass);
+    }
+}

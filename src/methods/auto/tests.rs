@@ -438,14 +438,7 @@ fn a_pass_cut_in_its_adaptive_extras_leaves_like_fractions() {
 fn one_sweep_without_a_deadline_gives_the_frames_of_the_rounds() {
     for bounces in [0, 1] {
         let j = job(builtin("cornell", 24, 18), Method::Auto, 4, 3, bounces);
-        let mut far = j.clone();
-        far.halt.time_budget = Some(std::time::Duration::from_secs(3600));
-        let (one, rounds) = (all_frames(&j), all_frames(&far));
-        assert_eq!(one.len(), 4);
-        assert!(one.last().unwrap().spp.iter().any(|&n| n != 16.0), "the last pass adapts its counts");
-        for (a, b) in one.iter().zip(&rounds) {
-            assert_eq!((&a.color, &a.spp), (&b.color, &b.spp), "{bounces} bounces, pass {}", a.stats.pass);
-        }
+        crate::methods::tests::assert_one_sweep_equals_the_rounds(&j, 4, 16.0);
     }
 }
 

@@ -219,14 +219,7 @@ fn a_pass_cut_in_its_extras_leaves_each_pixel_a_like_fraction_of_its_way() {
 #[test]
 fn one_sweep_without_a_deadline_gives_the_frames_of_the_rounds() {
     let j = job(builtin("sky-spheres", 32, 24), Method::Bandwidth, 5, 6, 1);
-    let mut far = j.clone();
-    far.halt.time_budget = Some(std::time::Duration::from_secs(3600));
-    let (one, rounds) = (all_frames(&j), all_frames(&far));
-    assert_eq!(one.len(), 5);
-    assert!(one.last().unwrap().spp.iter().any(|&n| n != 16.0), "the last pass adapts its counts");
-    for (a, b) in one.iter().zip(&rounds) {
-        assert_eq!((&a.color, &a.spp), (&b.color, &b.spp), "pass {}", a.stats.pass);
-    }
+    crate::methods::tests::assert_one_sweep_equals_the_rounds(&j, 5, 16.0);
 }
 
 /// Eq. 4's light directions shared by a tile of pixels (`light_tile`, the default 8) predict
