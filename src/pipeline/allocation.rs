@@ -116,8 +116,14 @@ pub const ROUNDS: u32 = 4;
 /// equal steps, `ROUNDS` of them at most (fewer when the pass adds fewer samples), the last
 /// one `target`. The error of a mean over the image goes as the mean of 1 / n over its pixels,
 /// which for a given number of samples is least when the counts are equal, so a pass the
-/// deadline cuts should leave them within a round of each other.
-pub fn rounds(before: u32, target: u32) -> Vec<u32> {
+/// deadline cuts should leave them within a round of each other. Where nothing but a
+/// cancellation can stop the pass (`can_cut` false: no deadline), one sweep straight to
+/// `target`: the same samples (each sample's numbers depend on its index alone), in packets of
+/// a pixel's whole share rather than a sample or two.
+pub fn rounds(before: u32, target: u32, can_cut: bool) -> Vec<u32> {
+    if !can_cut {
+        return vec![target];
+    }
     let step = target.saturating_sub(before).div_ceil(ROUNDS).max(1);
     let mut out: Vec<u32> = (1..ROUNDS).map(|k| before.saturating_add(k * step)).filter(|&c| c < target).collect();
     out.push(target);
@@ -139,6 +145,17 @@ pub fn extras_round(base: u32, count: u32, k: u32) -> u32 {
         .min(count)
 }
 
+/// The sweeps `k` of a pass's adaptive extras (`extras_round`): all `EXTRA_ROUNDS` where a
+/// deadline can cut the pass, else the last alone, every pixel straight to its count (as in
+/// `rounds`).
+pub fn extra_rounds(can_cut: bool) -> std::ops::RangeInclusive<u32> {
+    if can_cut {
+        1..=EXTRA_ROUNDS
+    } else {
+        EXTRA_ROUNDS..=EXTRA_ROUNDS
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -149,12 +166,13 @@ mod tests {
 
     #[test]
     fn passes_sweep_the_image_in_rounds_of_about_equal_steps() {
-        assert_eq!(rounds(16, 64), [28, 40, 52, 64]);
-        assert_eq!(rounds(4, 16), [7, 10, 13, 16]);
-        assert_eq!(rounds(1, 4), [2, 3, 4]);
-        assert_eq!(rounds(0, 1), [1]);
-        assert_eq!(rounds(64, 64), [64], "a pass that adds nothing");
-        assert_eq!(rounds(u32::MAX - 2, u32::MAX), [u32::MAX - 1, u32::MAX]);
+        assert_eq!(rounds(16, 64, true), [28, 40, 52, 64]);
+        assert_eq!(rounds(4, 16, true), [7, 10, 13, 16]);
+        assert_eq!(rounds(1, 4, true), [2, 3, 4]);
+        assert_eq!(rounds(0, 1, true), [1]);
+        assert_eq!(rounds(64, 64, true), [64], "a pass that adds nothing");
+        assert_eq!(rounds(16, 64, false), [64], "no deadline: one sweep");
+        assert_eq!(rounds(u32::MAX - 2, u32::MAX, true), [u32::MAX - 1, u32::MAX]);
         // The extras: a sixteenth of each pixel's way per sweep (rounded up), the last sweep
         // its count.
         let sweeps = |base, count| (1..=EXTRA_ROUNDS).map(|k| extras_round(base, count, k)).collect::<Vec<_>>();

@@ -53,7 +53,7 @@ use super::lobe_aware::packed::{gather_where, gather_with_power, PackedGuide, Pa
 use super::mode::FilterMode;
 use super::parts;
 use super::uniform::Uniform;
-use crate::pipeline::allocation::{extras_round, rounds, window, EXTRA_ROUNDS};
+use crate::pipeline::allocation::{extra_rounds, extras_round, rounds, window};
 use crate::pipeline::film::{mean, Tally};
 use crate::pipeline::frame::{ComponentMaps, Frame, FrameStats};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
@@ -229,8 +229,7 @@ impl AutoStrategy {
     /// adapt: then first every pixel up to the pass's uniform share and only then the adaptive
     /// extras, so that a pass the deadline cuts has raised the whole image before its
     /// penumbrae. The even part runs in `ROUNDS` sweeps over the image (`rounds`), the extras
-    /// in `EXTRA_ROUNDS`. Without a deadline to cut the pass, one sweep does it all: the same
-    /// samples, in packets of the pixel's count rather than of a sample or two.
+    /// in `EXTRA_ROUNDS`; without a deadline to cut the pass, one sweep each (`rounds`).
     fn trace(&mut self, ctx: &PassContext, before: u32, target: u32) -> Result<bool, RenderError> {
         let nl = self.lights.len();
         let Some(counts) =
@@ -238,16 +237,12 @@ impl AutoStrategy {
         else {
             return self.trace_rounds(ctx, before, target, &|_| target);
         };
-        if !ctx.stop.can_cut() {
-            // Nothing can cut the pass: the sweeps would trace the same samples, a few at a time.
-            return self.trace_to(ctx, &|p| counts[p]);
-        }
         let uniform = self.opts.proportional().uniform_share(target);
         if !self.trace_rounds(ctx, before, uniform, &|p| counts[p])? {
             return Ok(false);
         }
         // The extras in sweeps too, finer ones, each pixel a like fraction of its own further.
-        for k in 1..=EXTRA_ROUNDS {
+        for k in extra_rounds(ctx.stop.can_cut()) {
             if !self.trace_to(ctx, &|p| extras_round(uniform, counts[p], k))? {
                 return Ok(false);
             }
@@ -316,10 +311,7 @@ impl AutoStrategy {
         target: u32,
         count: &(dyn Fn(usize) -> u32 + Sync),
     ) -> Result<bool, RenderError> {
-        if !ctx.stop.can_cut() {
-            return self.trace_to(ctx, &|p| count(p).min(target));
-        }
-        for round in rounds(before, target) {
+        for round in rounds(before, target, ctx.stop.can_cut()) {
             if !self.trace_to(ctx, &|p| count(p).min(round))? {
                 return Ok(false);
             }

@@ -13,7 +13,7 @@ use super::levels::pyramid;
 use super::options::Visibility;
 use super::sample::{sample_terms, shade, LookupStream, MAX_LOOKUPS};
 use crate::methods::uniform::Uniform;
-use crate::pipeline::allocation::{extras_round, pooled_sigmas, rounds, EXTRA_ROUNDS};
+use crate::pipeline::allocation::{extra_rounds, extras_round, pooled_sigmas, rounds};
 use crate::pipeline::film::{trace_bands, Tally};
 use crate::pipeline::frame::{Frame, FrameStats, ShadingMaps};
 use crate::pipeline::job::{Integrand, RenderError, RenderJob};
@@ -331,8 +331,8 @@ impl BandwidthShading {
 
     /// Traces the pass: every pixel up to the pass's uniform share in sweeps over the image,
     /// then the adaptive extras in `EXTRA_ROUNDS` more, so that a pass the deadline cuts leaves the
-    /// counts even; without adaptive counts, or without a deadline to cut the pass, every pixel
-    /// its samples in one sweep (the sweeps' packets of a sample or two cost more per sample).
+    /// counts even (one sweep each without a deadline to cut the pass, `rounds`); without
+    /// adaptive counts, every pixel its plan's samples in one sweep.
     fn trace_pass(
         &mut self,
         ctx: &PassContext,
@@ -345,15 +345,14 @@ impl BandwidthShading {
                 self.pixels.par_iter().zip(plan).map(|(p, q)| p.taken.saturating_add(q.samples)).collect();
             return self.trace(ctx, plan, &|p| ends[p]);
         };
-        if !ctx.stop.can_cut() {
-            // Nothing can cut the pass: the sweeps would trace the same samples, a few at a time.
-            return self.trace(ctx, plan, &|p| counts[p]);
-        }
         let before = self.base_spp.min(u32::MAX as u64) as u32;
         let uniform = ctx.job.bandwidth.proportional().uniform_share(target);
+        let can_cut = ctx.stop.can_cut();
         let mut total = Tally { complete: true, ..Tally::default() };
-        let sweeps =
-            rounds(before, uniform).into_iter().map(|r| (r, 0)).chain((1..=EXTRA_ROUNDS).map(|k| (uniform, k)));
+        let sweeps = rounds(before, uniform, can_cut)
+            .into_iter()
+            .map(|r| (r, 0))
+            .chain(extra_rounds(can_cut).map(|k| (uniform, k)));
         for (round, k) in sweeps {
             let tally = if k == 0 {
                 self.trace(ctx, plan, &|p| counts[p].min(round))?
