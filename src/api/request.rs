@@ -190,6 +190,7 @@ pub fn prepare_compiled(
             indirect: Default::default(),
             lobe,
             auto: Default::default(),
+            uniform: Default::default(),
             aov_samples: if req.outputs.as_ref().is_some_and(wants_aovs) { AOV_SAMPLES } else { 0 },
         },
         info: RenderInfo {

@@ -59,10 +59,12 @@ impl SceneThroughput {
     }
 }
 
-/// The uniform job the benchmark traces: the scene's own view, jittered pixels, `bounces`.
+/// The uniform job the benchmark traces: the scene's own view, jittered pixels, `bounces`,
+/// one path per sample (no splitting at the first hit, `pipeline::splitting`): the path
+/// tracer's own speed, comparable with another renderer's samples per second.
 pub fn job(scene: Arc<Scene>, bounces: u32, seed: u64) -> RenderJob {
     let mut job = RenderJob::new(scene, Method::Uniform, Halt::passes(1));
-    (job.bounces, job.seed) = (bounces, seed);
+    (job.bounces, job.seed, job.uniform.max_splits) = (bounces, seed, 1);
     job
 }
 

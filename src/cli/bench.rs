@@ -78,7 +78,7 @@ pub struct ConvergenceArgs {
     #[arg(long)]
     pub exclude_above: Option<f32>,
     /// Set a method option by name for every render but the reference, GROUP.NAME=VALUE
-    /// (repeatable; groups `auto`, `bandwidth`, `lobe`, `aaf` and `indirect`, e.g.
+    /// (repeatable; groups `auto`, `bandwidth`, `lobe`, `aaf`, `indirect` and `uniform`, e.g.
     /// `auto.narrow_scale=0.25`): how a choice
     /// measured against the default is rerun. An unknown name lists its group's names.
     #[arg(long = "set", value_name = "GROUP.NAME=VALUE")]

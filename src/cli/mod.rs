@@ -190,7 +190,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub mesh_root: Option<PathBuf>,
     /// Set a method option by name, GROUP.NAME=VALUE (repeatable; groups `auto`, `bandwidth`,
-    /// `lobe`, `aaf` and `indirect`, e.g. `auto.narrow_scale=0.25`), for experiments; `wedge render` only (a
+    /// `lobe`, `aaf`, `indirect` and `uniform`, e.g. `auto.narrow_scale=0.25`), for experiments; `wedge render` only (a
     /// server takes no options beyond its request's).
     #[arg(long = "set", value_name = "GROUP.NAME=VALUE")]
     pub settings: Vec<String>,

@@ -7,6 +7,7 @@ use crate::methods::aaf_shadows::options::AafOptions;
 use crate::methods::auto::options::AutoOptions;
 use crate::methods::bandwidth::options::BandwidthOptions;
 use crate::methods::lobe_aware::options::LobeAwareOptions;
+use crate::methods::uniform::options::UniformOptions;
 use crate::render::camera::Camera;
 pub use crate::render::integrator::Integrand;
 use crate::render::scene::Scene;
@@ -92,6 +93,8 @@ pub struct RenderJob {
     pub auto: AutoOptions,
     /// Parameters of `bandwidth` (Bagher et al. 2012).
     pub bandwidth: BandwidthOptions,
+    /// Parameters of `uniform`'s path tracer (splitting at the first hit, `splitting`).
+    pub uniform: UniformOptions,
     /// Camera rays per pixel of the denoiser inputs (albedo, normal, depth: `render::aovs`),
     /// traced once before pass 0 and attached to every frame; 0 traces none.
     pub aov_samples: u32,
@@ -116,6 +119,7 @@ impl RenderJob {
             lobe: LobeAwareOptions::default(),
             auto: AutoOptions::default(),
             bandwidth: BandwidthOptions::default(),
+            uniform: UniformOptions::default(),
             aov_samples: 0,
         }
     }

@@ -11,4 +11,5 @@ pub mod noise;
 pub mod progressive;
 pub mod registry;
 pub mod settings;
+pub mod splitting;
 pub mod strategy;

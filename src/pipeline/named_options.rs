@@ -7,6 +7,7 @@ use crate::methods::aaf_shadows::options::AafOptions;
 use crate::methods::auto::options::AutoOptions;
 use crate::methods::bandwidth::options::BandwidthOptions;
 use crate::methods::lobe_aware::options::LobeAwareOptions;
+use crate::methods::uniform::options::UniformOptions;
 
 /// Sets `name` (a field of `T`) to `text`.
 fn set_in<T: Settable>(options: &mut T, name: &str, text: &str) -> Result<(), String> {
@@ -26,6 +27,7 @@ pub fn all_settings() -> Vec<(String, Setting)> {
     }
     (of::<AutoOptions>().chain(of::<BandwidthOptions>()).chain(of::<LobeAwareOptions>()))
         .chain(of::<AafOptions>().chain(of::<IndirectOptions>()))
+        .chain(of::<UniformOptions>())
         .collect()
 }
 
@@ -38,6 +40,7 @@ impl RenderJob {
             lobe: &mut self.lobe,
             aaf: &mut self.aaf,
             indirect: &mut self.indirect,
+            uniform: &mut self.uniform,
         };
         groups.assign(assignment)
     }
@@ -45,9 +48,15 @@ impl RenderJob {
 
 /// Whether `assignment` would be accepted, without a job to apply it to.
 pub fn check(assignment: &str) -> Result<(), String> {
-    let (mut auto, mut bandwidth, mut lobe, mut aaf, mut indirect) = Default::default();
-    let mut groups =
-        Groups { auto: &mut auto, bandwidth: &mut bandwidth, lobe: &mut lobe, aaf: &mut aaf, indirect: &mut indirect };
+    let (mut auto, mut bandwidth, mut lobe, mut aaf, mut indirect, mut uniform) = Default::default();
+    let mut groups = Groups {
+        auto: &mut auto,
+        bandwidth: &mut bandwidth,
+        lobe: &mut lobe,
+        aaf: &mut aaf,
+        indirect: &mut indirect,
+        uniform: &mut uniform,
+    };
     groups.assign(assignment)
 }
 
@@ -58,6 +67,7 @@ struct Groups<'a> {
     lobe: &'a mut LobeAwareOptions,
     aaf: &'a mut AafOptions,
     indirect: &'a mut IndirectOptions,
+    uniform: &'a mut UniformOptions,
 }
 
 impl Groups<'_> {
@@ -74,13 +84,14 @@ impl Groups<'_> {
             "lobe" => set_in(self.lobe, name, text),
             "aaf" => set_in(self.aaf, name, text),
             "indirect" => set_in(self.indirect, name, text),
+            "uniform" => set_in(self.uniform, name, text),
             _ => Err(format!("{key}: no group {group:?}; the groups are {GROUPS}")),
         }
     }
 }
 
 /// The groups' names, for messages.
-const GROUPS: &str = "auto, bandwidth, lobe, aaf, indirect";
+const GROUPS: &str = "auto, bandwidth, lobe, aaf, indirect, uniform";
 
 #[cfg(test)]
 mod tests {

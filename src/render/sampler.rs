@@ -139,6 +139,24 @@ impl PixelSampler {
         PixelSampler { key, reversed_index, pair, ahead_from: 0, ahead_len: 0, ahead: [[0.0; 2]; MAX_AHEAD] }
     }
 
+    /// The key of the stream a pixel's split paths draw from (`integrator::radiance_split`), from
+    /// the pixel's `pixel_key`: a stream of its own, so that the split paths' numbers are
+    /// independent of the camera samples' and the paths of all the pixel's samples, numbered
+    /// consecutively, form one stratified set.
+    #[inline]
+    pub fn split_key(key: u64) -> u64 {
+        mix64(key ^ SPLIT_DOMAIN)
+    }
+
+    /// Samplers for samples `first ..` of the stream `key`, one per entry of `samplers`, none of
+    /// their pairs drawn yet: consecutive samples of one stream, for `draw_ahead`.
+    #[inline]
+    pub fn consecutive(key: u64, first: u32, samplers: &mut [PixelSampler]) {
+        for (i, s) in samplers.iter_mut().enumerate() {
+            *s = Self::of_pixel(key, first.wrapping_add(i as u32));
+        }
+    }
+
     /// The dimension pairs drawn so far (a 1-D value takes a pair).
     pub fn pairs_drawn(&self) -> u32 {
         self.pair
@@ -234,6 +252,9 @@ impl PixelSampler {
         }
     }
 }
+
+/// Mixed into a pixel's key to give its split paths' stream (`PixelSampler::split_key`).
+const SPLIT_DOMAIN: u64 = 0x5bd1_e995_9e37_79b9;
 
 /// Samples whose points `draw_ahead` computes together: an AVX-512 register of 32-bit lanes.
 const AHEAD_LANES: usize = 16;

@@ -1,6 +1,8 @@
 //! `uniform`: plain Monte Carlo, the same samples per pixel everywhere, no filter. The baseline
 //! every other method is measured against. Pass 0 takes `initial_spp`; each later pass doubles
 //! the total, so frame k has initial_spp * 2^k samples per pixel (capped at max_mean_spp).
+pub mod options;
+
 use crate::pipeline::film::Film;
 use crate::pipeline::frame::{Frame, FrameStats};
 use crate::pipeline::job::{RenderError, RenderJob};
