@@ -166,7 +166,11 @@ impl Film {
         let w = self.width as usize;
         let cam = &job.view;
         // Paths per sample past the first hit: chosen at the first call (`splitting`).
-        let k = *self.splits.get_or_insert_with(|| splitting::choose(scene, job)) as usize;
+        let k = *self.splits.get_or_insert_with(|| {
+            let k = splitting::choose(scene, job);
+            tracing::debug!(paths_per_sample = k, "uniform: the pilot's paths per camera sample");
+            k
+        }) as usize;
         let split = k > 1;
         let first_pairs = path_pairs(scene, integrand, if split { 0 } else { bounces });
         let split_pairs = path_pairs(scene, integrand, bounces) - first_pairs;
