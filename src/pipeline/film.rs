@@ -152,9 +152,9 @@ impl Film {
 
     /// Traces `count(pixel_index)` more camera samples of `job` (its seed, bounces, integrand and
     /// pixel sampling) for every pixel, in parallel over bands of rows. Each sample's numbers
-    /// depend only on (seed, pixel, sample index), and how many paths it splits into only on the
-    /// pixel's earlier samples (`splitting`), so the result is the same for any thread count.
-    /// Non-finite sample values are counted and dropped.
+    /// depend only on (seed, pixel, sample index), and the paths each splits into at its first
+    /// hit only on the seed (`splitting`'s pilot, run at the first call), so the result is the
+    /// same for any thread count. Non-finite sample values are counted and dropped.
     pub fn add_samples(
         &mut self,
         scene: &Scene,
@@ -205,8 +205,8 @@ impl Film {
                 for i in 0..m {
                     let p = match c.hits[i] {
                         Some(hit) if split => {
-                            // Sample s's paths are points s k .. s k + k of the pixel's split
-                            // stream: those of all its samples form one stratified set.
+                            // Sample s's paths are points s k .. s k + k - 1 of the pixel's
+                            // split stream: those of all its samples form one stratified set.
                             let sample = px.taken - m as u32 + i as u32;
                             let (splits, paths) = (&mut splits[..k], &mut paths[..k]);
                             PixelSampler::consecutive(split_key, sample.wrapping_mul(k as u32), splits);

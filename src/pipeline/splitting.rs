@@ -33,8 +33,9 @@ use rayon::prelude::*;
 
 pub use crate::methods::uniform::options::MAX_SPLITS;
 
-/// Pixels the pilot traces at most (spread over the image) and samples per pixel.
+/// Pixels the pilot traces at most (spread over the image).
 pub const PILOT_PIXELS: usize = 1024;
+/// Camera samples per pilot pixel, each with two paths.
 pub const PILOT_SAMPLES: u32 = 4;
 
 /// Mixed into the seed of the pilot's numbers, so that they are not the render's own.
@@ -50,7 +51,7 @@ pub struct PilotSample {
 }
 
 /// The pilot's record, summed over its pixels: the within-sample squared differences of the
-/// two paths, the within-pixel sample variances of the samples' values, and the rays.
+/// two paths, the within-pixel sample variances of the first stage, and the rays.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Pilot {
     /// Sum over samples of (I_1 - I_2)^2 / 2 (each an unbiased estimate of s_w^2) and their count.
