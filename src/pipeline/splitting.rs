@@ -25,10 +25,9 @@
 
 use super::job::RenderJob;
 use crate::render::integrator::{radiance_split, Integrand, PathResult};
-use crate::render::material::Material;
+use crate::render::material::{luminance, Material};
 use crate::render::sampler::PixelSampler;
 use crate::render::scene::Scene;
-use glam::Vec3;
 use rayon::prelude::*;
 
 pub use crate::methods::uniform::options::MAX_SPLITS;
@@ -109,12 +108,6 @@ impl Pilot {
             max
         }
     }
-}
-
-/// The luminance the pilot's variances are taken of.
-#[inline]
-pub fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
 /// The pixels the pilot visits: at most `PILOT_PIXELS`, on a regular grid over the image.

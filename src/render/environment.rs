@@ -9,6 +9,7 @@
 //! the -Z direction (u = 0) towards +X (u = 1/4), and the first and last rows lie on the poles
 //! (`LatLongMap`). A light's `to_map` rotation takes world directions into that frame.
 use super::distribution::{prefetch, Distribution2D};
+use super::material::luminance;
 use glam::{Mat3, Vec3};
 use std::f32::consts::PI;
 use std::sync::Arc;
@@ -145,11 +146,6 @@ impl LatLongMap {
         }
         sum / weight
     }
-}
-
-#[inline]
-fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
 /// Where an environment light's radiance comes from.

@@ -90,8 +90,9 @@ pub struct BrdfSample {
     pub pdf: f32,
 }
 
+/// Rec. 709 luminance of a linear RGB colour.
 #[inline]
-fn luminance(c: Vec3) -> f32 {
+pub fn luminance(c: Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
